@@ -1,0 +1,205 @@
+/* Earth's centred dipole (the radiation-belt reference field).
+ *
+ * Moment along -z, so that B at the equator points north (+z) as Earth's
+ * does:  with m = -zhat, c = B0 R_E^3,
+ *   B = c [3 (m.rhat) rhat - m] / r^3
+ *     = c [-3 z x_vec + r^2 zhat] / r^5,
+ * i.e.  Bx = -3c x z / r^5,  By = -3c y z / r^5,  Bz = c (r^2 - 3 z^2) / r^5
+ * (Jackson, Classical Electrodynamics, 3rd ed., eq. 5.56).  |B| = B0/L^3 at
+ * the equator at r = L R_E and 2 B0/L^3 at the poles.
+ *
+ * Vector potential (for the canonical momentum p_phi = q A_phi rho + ...):
+ *   A = A_phi phihat,  A_phi = -c rho / r^3 = -B0 R_E^3 rho / r^3,
+ * rho = sqrt(x^2 + y^2); curl A gives the B above (Bz = (1/rho) d(rho A_phi)/drho
+ * = c (rho^2 - 2 z^2)/r^5).  The flux function psi = rho A_phi is constant on
+ * a field line, so a drift shell keeps rho A_phi, i.e. L, fixed.
+ *
+ * Optional corotation electric field, the field seen by plasma corotating
+ * with the Earth (ideal MHD, E + v x B = 0, v = Omega x r, Omega = Omega zhat):
+ *   E = -(Omega x r) x B,  Omega x r = Omega (-y, x, 0),
+ *   Ex = -Omega x Bz,  Ey = -Omega y Bz,  Ez = Omega (x Bx + y By),
+ * radially inward in the equatorial plane, perpendicular to B everywhere.
+ */
+#include <math.h>
+#include <stdlib.h>
+
+#include "field_priv.h"
+
+/* r^2 is floored at 1 m^2 (branch-free max) so that x = 0 gives finite
+ * numbers instead of 0 * inf = NaN.  The floor only changes points with
+ * r < 1 m, deep inside the Earth (r_inner ~ R_E), where no particle lives. */
+#define DIPOLE_R2_MIN 1.0
+
+struct dipole_params {
+    double c;     /* [T m^3] B0 R_E^3 */
+    double omega; /* [rad/s] corotation rate (0 with corotation off) */
+};
+
+/* r^2 floored (branch-free max) and c / r^5: shared by eval and eval_block
+ * so that both give bit-identical results (the build keeps
+ * -ffp-contract=off). */
+static inline double dipole_r2(double x, double y, double z)
+{
+    const double r2 = x * x + y * y + z * z;
+    return r2 > DIPOLE_R2_MIN ? r2 : DIPOLE_R2_MIN;
+}
+
+static inline double dipole_c5(double c, double r2) { return c / (r2 * r2 * sqrt(r2)); }
+
+/* B = c (-3 z x_vec + r^2 zhat) / r^5 */
+static inline void dipole_B(double c, double x, double y, double z, double *bx, double *by,
+                            double *bz)
+{
+    const double r2 = dipole_r2(x, y, z);
+    const double c5 = dipole_c5(c, r2);
+    const double m3z = -3.0 * c5 * z;
+    *bx = m3z * x;
+    *by = m3z * y;
+    *bz = c5 * (r2 - 3.0 * z * z);
+}
+
+/* E = -(Omega x r) x B, components above. */
+static inline void dipole_E(double omega, double x, double y, double bx, double by, double bz,
+                            double *ex, double *ey, double *ez)
+{
+    *ex = -omega * x * bz;
+    *ey = -omega * y * bz;
+    *ez = omega * (x * bx + y * by);
+}
+
+/* grad B from differentiating B_i = c (-3 z x_i + r^2 delta_iz) / r^5:
+ *   dB_i/dx_j = -3 c/r^5 [ z delta_ij + x_i delta_jz + x_j delta_iz
+ *                          - 5 z x_i x_j / r^2 ],
+ * symmetric (curl-free) and of trace -3c/r^5 (3z + 2z - 5z) = 0. */
+static int dipole_eval(const struct gcp_field *f, double t, const double x[3],
+                       struct gcp_field_sample *s)
+{
+    (void)t;
+    const struct dipole_params *p = f->params;
+    dipole_B(p->c, x[0], x[1], x[2], &s->B[0], &s->B[1], &s->B[2]);
+    if (s->need & GCP_NEED_GRADB) {
+        const double r2 = dipole_r2(x[0], x[1], x[2]), c5 = dipole_c5(p->c, r2);
+        const double a = -3.0 * c5, zf = 5.0 * x[2] / r2;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                double v = -zf * x[i] * x[j];
+                if (i == j) v += x[2];
+                if (j == 2) v += x[i];
+                if (i == 2) v += x[j];
+                s->gradB[i][j] = a * v;
+            }
+    }
+    if ((s->need & GCP_NEED_E) && f->has_E)
+        dipole_E(p->omega, x[0], x[1], s->B[0], s->B[1], s->B[2], &s->E[0], &s->E[1], &s->E[2]);
+    else if (s->need & GCP_NEED_E)
+        s->E[0] = s->E[1] = s->E[2] = 0.0; /* exact zeros, as eval_block writes */
+    return 0;
+}
+
+static void dipole_block_B(double c, size_t n, const double *restrict x,
+                           const double *restrict y, const double *restrict z,
+                           double *restrict Bx, double *restrict By, double *restrict Bz)
+{
+    for (size_t i = 0; i < n; i++) {
+        double bx, by, bz; /* locals: stores through the inlined pointers defeat restrict */
+        dipole_B(c, x[i], y[i], z[i], &bx, &by, &bz);
+        Bx[i] = bx;
+        By[i] = by;
+        Bz[i] = bz;
+    }
+}
+
+static void dipole_block_BE(double c, double omega, size_t n, const double *restrict x,
+                            const double *restrict y, const double *restrict z,
+                            double *restrict Bx, double *restrict By, double *restrict Bz,
+                            double *restrict Ex, double *restrict Ey, double *restrict Ez)
+{
+    for (size_t i = 0; i < n; i++) {
+        double bx, by, bz;
+        dipole_B(c, x[i], y[i], z[i], &bx, &by, &bz);
+        dipole_E(omega, x[i], y[i], bx, by, bz, &Ex[i], &Ey[i], &Ez[i]);
+        Bx[i] = bx;
+        By[i] = by;
+        Bz[i] = bz;
+    }
+}
+
+static void zero3(size_t n, double *restrict a, double *restrict b, double *restrict c)
+{
+    for (size_t i = 0; i < n; i++) a[i] = b[i] = c[i] = 0.0;
+}
+
+/* r_inner (atmosphere) and r_outer are checked by the scene from f. */
+static void dipole_eval_block(const struct gcp_field *f, double t, size_t n, const double *x,
+                              const double *y, const double *z, double *Bx, double *By,
+                              double *Bz, double *Ex, double *Ey, double *Ez, int32_t *status)
+{
+    (void)t;
+    (void)status;
+    const struct dipole_params *p = f->params;
+    if (Ex && f->has_E) {
+        dipole_block_BE(p->c, p->omega, n, x, y, z, Bx, By, Bz, Ex, Ey, Ez);
+    } else {
+        dipole_block_B(p->c, n, x, y, z, Bx, By, Bz);
+        if (Ex) zero3(n, Ex, Ey, Ez);
+    }
+}
+
+const struct gcp_field_type gcp_field_dipole = {
+    .name = "dipole",
+    .doc = "Earth's centred dipole, moment along -z: [B0] [corotation] [atmosphere] [r_outer]",
+    .eval = dipole_eval,
+    .eval_block = dipole_eval_block,
+    .destroy = NULL,
+};
+
+/* r_inner <= 0: no precipitation boundary; r_outer <= 0 or inf: no outer one. */
+struct gcp_field *gcp_field_dipole_create(double B0, int corotation, double r_inner,
+                                          double r_outer)
+{
+    struct gcp_field *f = gcp_field_alloc(&gcp_field_dipole, sizeof(struct dipole_params));
+    if (!f) return NULL;
+    struct dipole_params *p = f->params;
+    p->c = B0 * GCP_EARTH_RADIUS * GCP_EARTH_RADIUS * GCP_EARTH_RADIUS;
+    p->omega = corotation ? GCP_EARTH_OMEGA : 0.0;
+    f->has_E = corotation != 0;
+    f->axisymmetric = 1;
+    f->r_inner = r_inner > 0.0 ? r_inner : 0.0;
+    f->r_outer = r_outer > 0.0 ? r_outer : INFINITY;
+    return f;
+}
+
+/* Keys, all optional:
+ *   B0         equatorial surface field, default GCP_EARTH_B0 = 3.12e-5 T
+ *   corotation yes/no, default no (adds E = -(Omega x r) x B)
+ *   atmosphere altitude of the loss boundary, default 100 km:
+ *              r_inner = R_E + atmosphere, below it a particle PRECIPITATES
+ *   r_outer    default 15 RE, beyond it a particle has LEFT_DOMAIN */
+int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                  struct gcp_error *err)
+{
+    double B0 = GCP_EARTH_B0, alt = 100e3, r_outer = 15.0 * GCP_EARTH_RADIUS;
+    int corot = 0, rc;
+    *out = NULL;
+    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 0, &B0, err)) < 0) return rc;
+    if ((rc = gcp_section_flag(sec, "corotation", 0, &corot, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "atmosphere", GCP_Q_LENGTH, 0, &alt, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "r_outer", GCP_Q_LENGTH, 0, &r_outer, err)) < 0)
+        return rc;
+    if (!(B0 > 0.0 && isfinite(B0)))
+        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
+                                 "must be positive and finite, got %g T", B0);
+    if (!(alt >= 0.0 && isfinite(alt)))
+        return gcp_section_error(sec, "atmosphere", err, GCP_ERR_VALUE,
+                                 "altitude must be >= 0 and finite, got %g m", alt);
+    const double r_inner = GCP_EARTH_RADIUS + alt;
+    if (!(r_outer > r_inner && isfinite(r_outer)))
+        return gcp_section_error(sec, "r_outer", err, GCP_ERR_VALUE,
+                                 "must be finite and above the atmosphere (%g m), got %g m",
+                                 r_inner, r_outer);
+    if ((rc = gcp_section_check_unused(sec, "B0 corotation atmosphere r_outer", err)) < 0)
+        return rc;
+    *out = gcp_field_dipole_create(B0, corot, r_inner, r_outer);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "dipole field: out of memory");
+    return 0;
+}

@@ -1,0 +1,33 @@
+/* fields/field_priv.h -- shared by the field models in fields/ (not installed).
+ *
+ * Each model file exports its `const struct gcp_field_type gcp_field_<name>`,
+ * its public create function (field.h) and the run-file reader declared here,
+ * which field.c dispatches to by model name.
+ */
+#ifndef GCPUSH_FIELD_PRIV_H
+#define GCPUSH_FIELD_PRIV_H
+
+#include <stddef.h>
+
+#include "gcpush/error.h"
+#include "gcpush/field.h"
+#include "gcpush/section.h"
+
+/* A field of the given type with zeroed params of params_size bytes (none
+ * when 0) and the defaults "no domain limits": r_inner = 0, r_outer = z_max =
+ * INFINITY, no E, static, not axisymmetric.  NULL when out of memory. */
+struct gcp_field *gcp_field_alloc(const struct gcp_field_type *type, size_t params_size);
+
+/* Run-file readers: read the model's keys of [field], validate them, reject
+ * unknown keys, build the field.  0, or a negative code with err set; *out
+ * is NULL on error. */
+int gcp_field_uniform_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                   struct gcp_error *err);
+int gcp_field_mirror_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                  struct gcp_error *err);
+int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                  struct gcp_error *err);
+int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                   struct gcp_error *err);
+
+#endif

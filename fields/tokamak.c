@@ -1,0 +1,241 @@
+/* Analytic axisymmetric tokamak with circular, concentric flux surfaces.
+ *
+ * Cylindrical (R, phi, Z) about the z axis, R = sqrt(x^2 + y^2), Z = z,
+ * right-handed with Rhat x phihat = Zhat.  Minor radius r and poloidal angle
+ * theta about the magnetic axis (R0, 0):
+ *   R - R0 = r cos theta,  Z = r sin theta,  r^2 = (R - R0)^2 + Z^2.
+ *
+ * B = B0 R0 / R phihat  +  grad psi x grad phi,
+ * with the poloidal flux function psi(r) given by
+ *   dpsi/dr = B0 r / q(r),   q(r) = q0 + (qa - q0) (r/a)^2,
+ * so that, with F(r) = B0 / q(r):
+ *   B_phi = B0 R0 / R,   B_R = -F Z / R,   B_Z = F (R - R0) / R.
+ * div B = 0 exactly: the toroidal part depends on R only and points along
+ * phi, and div(grad psi x grad phi) = 0 identically (check: (1/R) d(R B_R)/dR
+ * + dB_Z/dZ = F'(r)/R [-Z (R-R0)/r + (R-R0) Z/r] = 0).  There is no current
+ * density model behind psi(r): it is a prescribed field (e.g. Wesson,
+ * Tokamaks, ch. 3; the large-aspect-ratio "cylindrical" q), not a
+ * Grad-Shafranov solution, which guiding-centre tests do not need.
+ *
+ * Safety factor.  |B_pol| = psi'(r)/R, so the cylindrical estimate
+ * r B_phi / (R0 B_pol) is q(r) exactly, and the true field-line winding
+ * number on the circle r is
+ *   q_line = (1/2pi) oint B_phi / (R B_pol) dl = q(r) / sqrt(1 - (r/R0)^2),
+ * i.e. q(r) up to O(epsilon^2), epsilon = r/R0.
+ *
+ * Sign conventions.  For B0 > 0, q0, qa > 0: B_phi points along +phi; at the
+ * outboard midplane B_Z > 0, so seen in the (R, Z) plane (R to the right, Z
+ * up) the poloidal field circulates counter-clockwise, and by Ampere's law
+ * the toroidal plasma current flows along -phi (anti-parallel to B_phi).
+ * B0 < 0 reverses both B_phi and B_pol (same field-line helicity).
+ *
+ * Domain: the plasma r <= a.  eval returns GCP_LEFT_DOMAIN (and eval_block
+ * sets status) for r > a; f->r_outer = R0 + a and f->z_max = a are the
+ * crude spherical/vertical bounds the scene can check cheaply.
+ */
+#include <math.h>
+#include <stdlib.h>
+
+#include "field_priv.h"
+#include "gcpush/particles.h"
+
+struct tokamak_params {
+    double B0, R0, a; /* [T], [m], [m] */
+    double q0, qa;    /* safety factor on axis and at r = a */
+    double a2;        /* [m^2] a^2 */
+    double dq;        /* [1/m^2] (qa - q0) / a^2: q = q0 + dq r^2 (0 when qa == q0) */
+    double qmin;      /* min(q0, qa) */
+    double B0R0;      /* [T m] */
+    double R2min;     /* [m^2] floor of R^2 (see tok_B) */
+};
+
+/* The one expression of B shared by eval and eval_block (bit-identical
+ * results; the build keeps -ffp-contract=off).
+ *
+ * Cartesian components, with u = 1/R^2 and G = F z:
+ *   Bx = B_R x/R - B_phi y/R = -(G x + B0 R0 y) u
+ *   By = B_R y/R + B_phi x/R =  (B0 R0 x - G y) u
+ *   Bz = F (R - R0)/R.
+ * Two floors, both without branches and both acting only outside the plasma
+ * (so they never change a field value the pusher uses): R^2 >= R2min = (1e-6
+ * R0)^2 keeps the z axis finite (there r = R0 > a); q >= min(q0, qa) keeps q
+ * away from 0 when a reversed-shear profile (qa < q0) is extrapolated to
+ * r > a.  Returns r^2 for the domain test. */
+static inline double tok_B(const struct tokamak_params *p, double x, double y, double z,
+                           double *bx, double *by, double *bz)
+{
+    double s = x * x + y * y;
+    s = s > p->R2min ? s : p->R2min;
+    const double R = sqrt(s);
+    const double u = 1.0 / s;
+    const double dR = R - p->R0;
+    const double r2 = dR * dR + z * z;
+    double q = p->q0 + p->dq * r2;
+    q = q > p->qmin ? q : p->qmin;
+    const double F = p->B0 / q;
+    const double G = F * z;
+    *bx = -(G * x + p->B0R0 * y) * u;
+    *by = (p->B0R0 * x - G * y) * u;
+    *bz = F * dR / R;
+    return r2;
+}
+
+/* grad B, differentiating the Cartesian expressions above.  With
+ *   w = (R - R0)/R,  dF/dr^2 = Fp = -F dq / q,  dr^2/dx = 2 w x,
+ *   dr^2/dy = 2 w y,  dr^2/dz = 2 z,  du/dx = -2 x u^2,  du/dy = -2 y u^2,
+ *   dF_j = dF/dx_j,  dG_j = z dF_j + F delta_jz,
+ *   P = G x + B0R0 y (Bx = -P u),  Q = B0R0 x - G y (By = Q u):
+ *   dBx/dx = -(x dG_x + G) u + 2 x P u^2     dBx/dy = -(x dG_y + B0R0) u + 2 y P u^2
+ *   dBx/dz = -x dG_z u
+ *   dBy/dx = (B0R0 - y dG_x) u - 2 x Q u^2    dBy/dy = -(y dG_y + G) u - 2 y Q u^2
+ *   dBy/dz = -y dG_z u
+ *   dBz/dx = dF_x w + F R0 x / R^3            dBz/dy = dF_y w + F R0 y / R^3
+ *   dBz/dz = dF_z w.
+ * (Fp uses the unclamped q, exact inside the plasma.) */
+static int tokamak_eval(const struct gcp_field *f, double t, const double xv[3],
+                        struct gcp_field_sample *s)
+{
+    (void)t;
+    const struct tokamak_params *p = f->params;
+    const double x = xv[0], y = xv[1], z = xv[2];
+    const double r2 = tok_B(p, x, y, z, &s->B[0], &s->B[1], &s->B[2]);
+    if (s->need & GCP_NEED_GRADB) {
+        double R2 = x * x + y * y;
+        R2 = R2 > p->R2min ? R2 : p->R2min;
+        const double R = sqrt(R2), u = 1.0 / R2, w = (R - p->R0) / R;
+        double q = p->q0 + p->dq * r2;
+        q = q > p->qmin ? q : p->qmin;
+        const double F = p->B0 / q, G = F * z, Fp = -F * p->dq / q;
+        const double dFx = 2.0 * Fp * w * x, dFy = 2.0 * Fp * w * y, dFz = 2.0 * Fp * z;
+        const double dGx = z * dFx, dGy = z * dFy, dGz = z * dFz + F;
+        const double P = G * x + p->B0R0 * y, Q = p->B0R0 * x - G * y;
+        const double u2 = u * u, FR0R3 = F * p->R0 * u / R;
+        s->gradB[0][0] = -(x * dGx + G) * u + 2.0 * x * P * u2;
+        s->gradB[0][1] = -(x * dGy + p->B0R0) * u + 2.0 * y * P * u2;
+        s->gradB[0][2] = -x * dGz * u;
+        s->gradB[1][0] = (p->B0R0 - y * dGx) * u - 2.0 * x * Q * u2;
+        s->gradB[1][1] = -(y * dGy + G) * u - 2.0 * y * Q * u2;
+        s->gradB[1][2] = -y * dGz * u;
+        s->gradB[2][0] = dFx * w + FR0R3 * x;
+        s->gradB[2][1] = dFy * w + FR0R3 * y;
+        s->gradB[2][2] = dFz * w;
+    }
+    if (s->need & GCP_NEED_E) s->E[0] = s->E[1] = s->E[2] = 0.0;
+    return r2 > p->a2 ? GCP_LEFT_DOMAIN : 0;
+}
+
+/* B for n lanes, and the domain test without a branch: a lane outside the
+ * plasma gets LEFT_DOMAIN unless the caller already gave it a status (a
+ * particle that died earlier keeps its first cause of death). */
+static void tok_block(const struct tokamak_params *pp, size_t n, const double *restrict x,
+                      const double *restrict y, const double *restrict z, double *restrict Bx,
+                      double *restrict By, double *restrict Bz, int32_t *restrict status)
+{
+    const struct tokamak_params p = *pp;
+    for (size_t i = 0; i < n; i++) {
+        double bx, by, bz; /* locals: stores through the inlined pointers defeat restrict */
+        const double r2 = tok_B(&p, x[i], y[i], z[i], &bx, &by, &bz);
+        Bx[i] = bx;
+        By[i] = by;
+        Bz[i] = bz;
+        const int32_t st = status[i];
+        status[i] = st + (int32_t)(st == 0) * (int32_t)(r2 > p.a2) * GCP_LEFT_DOMAIN;
+    }
+}
+
+/* Without a status array (the caller checks the domain itself). */
+static void tok_block_nostatus(const struct tokamak_params *pp, size_t n,
+                               const double *restrict x, const double *restrict y,
+                               const double *restrict z, double *restrict Bx,
+                               double *restrict By, double *restrict Bz)
+{
+    const struct tokamak_params p = *pp;
+    for (size_t i = 0; i < n; i++) {
+        double bx, by, bz;
+        tok_B(&p, x[i], y[i], z[i], &bx, &by, &bz);
+        Bx[i] = bx;
+        By[i] = by;
+        Bz[i] = bz;
+    }
+}
+
+static void zero3(size_t n, double *restrict a, double *restrict b, double *restrict c)
+{
+    for (size_t i = 0; i < n; i++) a[i] = b[i] = c[i] = 0.0;
+}
+
+static void tokamak_eval_block(const struct gcp_field *f, double t, size_t n, const double *x,
+                               const double *y, const double *z, double *Bx, double *By,
+                               double *Bz, double *Ex, double *Ey, double *Ez, int32_t *status)
+{
+    (void)t;
+    if (status)
+        tok_block(f->params, n, x, y, z, Bx, By, Bz, status);
+    else
+        tok_block_nostatus(f->params, n, x, y, z, Bx, By, Bz);
+    if (Ex) zero3(n, Ex, Ey, Ez);
+}
+
+const struct gcp_field_type gcp_field_tokamak = {
+    .name = "tokamak",
+    .doc = "analytic circular tokamak, q(r) = q0 + (qa - q0)(r/a)^2: B0, R0, a, q0, qa",
+    .eval = tokamak_eval,
+    .eval_block = tokamak_eval_block,
+    .destroy = NULL,
+};
+
+struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, double q0, double qa)
+{
+    struct gcp_field *f = gcp_field_alloc(&gcp_field_tokamak, sizeof(struct tokamak_params));
+    if (!f) return NULL;
+    struct tokamak_params *p = f->params;
+    p->B0 = B0;
+    p->R0 = R0;
+    p->a = a;
+    p->q0 = q0;
+    p->qa = qa;
+    p->a2 = a * a;
+    p->dq = (qa - q0) / p->a2; /* exactly 0 when qa == q0: flat q, no special case */
+    p->qmin = q0 < qa ? q0 : qa;
+    p->B0R0 = B0 * R0;
+    p->R2min = 1e-12 * R0 * R0;
+    f->axisymmetric = 1;
+    f->r_outer = R0 + a;
+    f->z_max = a;
+    return f;
+}
+
+/* Keys, all required: B0 (field on axis, non-zero; its sign sets the field
+ * direction), R0 (major radius), a (minor radius, 0 < a < R0), q0, qa
+ * (numbers > 0). */
+int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                   struct gcp_error *err)
+{
+    double B0, R0, a, q0, qa;
+    int rc;
+    *out = NULL;
+    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 1, &B0, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "R0", GCP_Q_LENGTH, 1, &R0, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "a", GCP_Q_LENGTH, 1, &a, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "q0", GCP_Q_NUMBER, 1, &q0, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "qa", GCP_Q_NUMBER, 1, &qa, err)) < 0) return rc;
+    if (!(B0 != 0.0 && isfinite(B0)))
+        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
+                                 "must be non-zero and finite, got %g T", B0);
+    if (!(R0 > 0.0 && isfinite(R0)))
+        return gcp_section_error(sec, "R0", err, GCP_ERR_VALUE,
+                                 "must be positive and finite, got %g m", R0);
+    if (!(a > 0.0 && a < R0))
+        return gcp_section_error(sec, "a", err, GCP_ERR_VALUE,
+                                 "minor radius must be in (0, R0 = %g m), got %g m", R0, a);
+    if (!(q0 > 0.0 && isfinite(q0)))
+        return gcp_section_error(sec, "q0", err, GCP_ERR_VALUE,
+                                 "must be positive and finite, got %g", q0);
+    if (!(qa > 0.0 && isfinite(qa)))
+        return gcp_section_error(sec, "qa", err, GCP_ERR_VALUE,
+                                 "must be positive and finite, got %g", qa);
+    if ((rc = gcp_section_check_unused(sec, "B0 R0 a q0 qa", err)) < 0) return rc;
+    *out = gcp_field_tokamak_create(B0, R0, a, q0, qa);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "tokamak field: out of memory");
+    return 0;
+}

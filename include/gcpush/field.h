@@ -1,0 +1,136 @@
+/* gcpush/field.h -- magnetic and electric field models.
+ *
+ * A field is a `struct gcp_field` whose `type` (one `const struct
+ * gcp_field_type` per model, one file per model in fields/) evaluates B,
+ * grad B and E on demand.  The block form evaluates B (and E only when the
+ * caller passes E arrays) for a struct-of-arrays block of positions; the
+ * scene picks the model once, the inner loop never asks which model it is.
+ *
+ * SI units: x [m], t [s], B [T], grad B [T/m], E [V/m].
+ * Field code never exits the process, never includes hdf5.h or mpi.h.
+ */
+#ifndef GCPUSH_FIELD_H
+#define GCPUSH_FIELD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+struct gcp_section; /* run-file section, see run.h */
+struct gcp_error;   /* error message buffer, see error.h */
+
+/* What a caller asks a field for (bit set in gcp_field_sample.need). */
+enum gcp_field_need {
+    GCP_NEED_B = 1u,     /* B */
+    GCP_NEED_GRADB = 2u, /* grad B tensor dB_i/dx_j */
+    GCP_NEED_E = 4u      /* E */
+};
+
+struct gcp_field_sample {
+    unsigned need;       /* [in] GCP_NEED_* bits the caller wants */
+    double B[3];         /* [T] magnetic field */
+    double gradB[3][3];  /* [T/m] gradB[i][j] = dB_i / dx_j (only with GCP_NEED_GRADB) */
+    double E[3];         /* [V/m] electric field (only with GCP_NEED_E; zero if the model has none) */
+};
+
+/* User callback for a field gcpush does not know: fill what out->need asks,
+ * return 0, or a particle status (GCP_LEFT_GRID, GCP_LEFT_DOMAIN, ...) when
+ * x is outside the field's domain. */
+typedef int (*gcp_field_eval_fn)(double t, const double x[3], struct gcp_field_sample *out,
+                                 void *ctx);
+
+struct gcp_field;
+
+struct gcp_field_type {
+    const char *name; /* run-file name: "uniform", "dipole", ... */
+    const char *doc;  /* one line for --help */
+    /* Scalar evaluation at one point: fills what s->need asks; returns 0 or
+     * a particle status code (enum gcp_status) for points outside the domain. */
+    int (*eval)(const struct gcp_field *f, double t, const double x[3],
+                struct gcp_field_sample *s);
+    /* Block evaluation of B (and E when Ex != NULL) at n points; status[i]
+     * is set non-zero only for points outside the field's domain (status
+     * may be NULL for models that are defined everywhere). */
+    void (*eval_block)(const struct gcp_field *f, double t, size_t n, const double *x,
+                       const double *y, const double *z, double *Bx, double *By, double *Bz,
+                       double *Ex, double *Ey, double *Ez, int32_t *status);
+    /* Frees params (may be NULL when params needs only free()). */
+    void (*destroy)(void *params);
+};
+
+struct gcp_field {
+    const struct gcp_field_type *type;
+    void *params;       /* the model's parameters, owned by the field */
+    int has_E;          /* [bool] the model has a non-zero electric field */
+    int time_dependent; /* [bool] B or E depends on t */
+    int axisymmetric;   /* [bool] symmetric about the z axis (dipole, mirror, tokamak) */
+    double r_inner;     /* [m] a particle with |x| < r_inner is PRECIPITATED (0: none) */
+    double r_outer;     /* [m] a particle with |x| > r_outer has LEFT_DOMAIN (inf: none) */
+    double z_max;       /* [m] a particle with |z| > z_max has LEFT_DOMAIN (inf: none) */
+};
+
+#ifndef GCP_PI
+#define GCP_PI 3.14159265358979323846 /* pi (M_PI is not ISO C) */
+#endif
+
+/* Physical constants of the Earth models. */
+#define GCP_EARTH_RADIUS 6.3712e6    /* R_E [m] (IGRF reference radius) */
+#define GCP_EARTH_B0 3.12e-5         /* equatorial surface dipole field [T] */
+#define GCP_EARTH_OMEGA 7.2921159e-5 /* Earth's sidereal rotation rate [rad/s] */
+
+/* Built-in models. */
+extern const struct gcp_field_type gcp_field_uniform;
+extern const struct gcp_field_type gcp_field_mirror;
+extern const struct gcp_field_type gcp_field_dipole;
+extern const struct gcp_field_type gcp_field_tokamak;
+extern const struct gcp_field_type gcp_field_callback;
+
+/* The model called `name`, or NULL. */
+const struct gcp_field_type *gcp_field_type_lookup(const char *name);
+/* NULL-terminated list of all built-in models (for --help). */
+const struct gcp_field_type *const *gcp_field_types(void);
+
+/* Build a field from its run-file section ([field]): each model reads its
+ * own keys, marks them used, and rejects values it cannot take.  Returns 0,
+ * or a negative code with err filled ("file:line: [field] key: ..."). */
+int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
+                           struct gcp_error *err);
+
+/* Direct constructors for library users (SI).  Each returns NULL only when
+ * out of memory. */
+struct gcp_field *gcp_field_uniform_create(const double B[3], const double E[3]);
+/* Vacuum magnetic bottle from the scalar potential
+ *   Phi = B0 (z + z^3/(3 Lm^2) - r^2 z/(2 Lm^2)),  B = grad Phi:
+ *   Bz = B0 (1 + (z^2 - r^2/2)/Lm^2),  Br = -B0 r z / Lm^2.
+ * Exactly curl- and divergence-free; on-axis mirror ratio 1 + z^2/Lm^2. */
+struct gcp_field *gcp_field_mirror_create(double B0, double Lm, double z_max, double r_max);
+/* Earth's centred dipole, moment along -z (B points north at the equator):
+ *   B = B0 R_E^3 [3 (m.rhat) rhat - m] / r^3.
+ * corotation != 0 adds the corotation electric field E = -(Omega x r) x B. */
+struct gcp_field *gcp_field_dipole_create(double B0, int corotation, double r_inner,
+                                          double r_outer);
+/* Analytic axisymmetric tokamak of major radius R0, minor radius a, field
+ * B0 on axis and safety factor profile q(r) = q0 + (qa - q0) (r/a)^2. */
+struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, double q0, double qa);
+/* A user callback field. */
+struct gcp_field *gcp_field_callback_create(gcp_field_eval_fn fn, void *ctx, int has_E);
+
+void gcp_field_free(struct gcp_field *f);
+
+/* Scalar evaluation (dispatches to f->type->eval). */
+int gcp_field_eval(const struct gcp_field *f, double t, const double x[3],
+                   struct gcp_field_sample *s);
+
+/* Generic block evaluation via the scalar eval, for models without their own. */
+void gcp_field_eval_block_generic(const struct gcp_field *f, double t, size_t n,
+                                  const double *x, const double *y, const double *z, double *Bx,
+                                  double *By, double *Bz, double *Ex, double *Ey, double *Ez,
+                                  int32_t *status);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* GCPUSH_FIELD_H */

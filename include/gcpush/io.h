@@ -1,0 +1,59 @@
+/* gcpush/io.h -- per-rank results of a scene and the HDF5 output file.
+ *
+ * Each rank holds the rows of the particles it pushed; gcp_output_write()
+ * writes them collectively into one file (parallel HDF5 over MPI-IO), to a
+ * temporary name renamed on success, so a failed run leaves no partial file.
+ * The layout is the contract of DESIGN.md ("HDF5 output"); analysis/ reads it.
+ */
+#ifndef GCPUSH_IO_H
+#define GCPUSH_IO_H
+
+#include <stdint.h>
+
+#include <mpi.h>
+
+#include "error.h"
+#include "run.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+struct gcp_results {
+    int64_t n, cap;        /* rows held, rows allocated */
+    int64_t S;             /* trajectory samples per particle (0: none) */
+    int64_t *id;           /* particle id of each row */
+    int32_t *pop;          /* population index */
+    double *x0, *u0;       /* [m], [m/s] initial state (n x 3) */
+    double *t;             /* [s] final time */
+    double *x, *u;         /* [m], [m/s] final state (n x 3) */
+    int32_t *status;       /* enum gcp_status */
+    int64_t *steps;        /* steps taken */
+    double *cpu;           /* [s] CPU time per particle */
+    double *traj_t;        /* [s] (n x S), NaN after count */
+    double *traj_x, *traj_u; /* [m], [m/s] (n x S x 3) */
+    int64_t *traj_count;   /* valid samples per particle */
+    double rank_cpu;       /* [s] CPU time of this rank's pushing */
+};
+
+void gcp_results_init(struct gcp_results *r, int64_t samples);
+/* Makes room for `more` rows; returns 0 or GCP_ERR_NOMEM. */
+int gcp_results_reserve(struct gcp_results *r, int64_t more);
+/* Sorts rows by particle id (the writer needs them in file order). */
+int gcp_results_sort(struct gcp_results *r);
+void gcp_results_free(struct gcp_results *r);
+
+/* Writes the scene's output file from every rank's results (collective on
+ * comm).  Returns 0 on every rank, or the same negative code on every rank
+ * with err set; on failure no output file is left behind. */
+int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
+                     struct gcp_error *err);
+
+/* Checks early (collectively) that the output path can be created, so a
+ * long run does not end in an unwritable directory.  0 or GCP_ERR_IO. */
+int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,70 @@
+/* gcpush/particles.h -- species, particle status codes, the SoA store. */
+#ifndef GCPUSH_PARTICLES_H
+#define GCPUSH_PARTICLES_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#ifndef GCP_PI
+#define GCP_PI 3.14159265358979323846 /* pi (M_PI is not ISO C) */
+#endif
+
+/* CODATA 2018 constants [SI]. */
+#define GCP_E_CHARGE 1.602176634e-19       /* elementary charge [C] (exact) */
+#define GCP_M_PROTON 1.67262192369e-27     /* proton mass [kg] */
+#define GCP_M_ELECTRON 9.1093837015e-31    /* electron mass [kg] */
+#define GCP_M_ALPHA 6.6446573357e-27       /* alpha particle mass [kg] */
+#define GCP_AMU 1.66053906660e-27          /* atomic mass constant [kg] */
+
+/* Every particle ends with one of these (stored as int32 in the output). */
+enum gcp_status {
+    GCP_ALIVE = 0,        /* pushed to the end of the run */
+    GCP_PRECIPITATED = 1, /* went below the atmosphere (|x| < field r_inner) */
+    GCP_LEFT_DOMAIN = 2,  /* left the scene's bounds */
+    GCP_LEFT_GRID = 3,    /* left a gridded field's grid */
+    GCP_NONADIABATIC = 4, /* guiding-centre validity broken */
+    GCP_NONFINITE = 5,    /* state became NaN or Inf (or started so) */
+    GCP_STEP_FAILED = 6,  /* an implicit or adaptive step failed */
+    GCP_STATUS_COUNT = 7
+};
+
+/* "ALIVE", "PRECIPITATED", ... or "UNKNOWN". */
+const char *gcp_status_name(int status);
+
+struct gcp_species {
+    char name[32];  /* "proton", "electron", "alpha", "O+", or the user's name */
+    double charge;  /* [C] */
+    double mass;    /* [kg] */
+};
+
+/* Fills s for "proton", "electron", "alpha", "O+"; returns 0 or GCP_ERR_UNKNOWN. */
+int gcp_species_lookup(const char *name, struct gcp_species *s);
+
+/* Struct-of-arrays particle store.  Full-orbit state: x, u = gamma v.
+ * Guiding-centre state: X in x/y/z, p_par, mu. */
+struct gcp_particles {
+    size_t n;          /* number of particles */
+    int64_t *id;       /* global particle id (the seed stream index) */
+    int32_t *pop;      /* index of the population (run-file [particles.*] section) */
+    double *x, *y, *z; /* [m] position (GC: guiding-centre position) */
+    double *ux, *uy, *uz; /* [m/s] u = gamma v (full orbit) */
+    double *ppar;      /* [kg m/s] parallel momentum (guiding centre) */
+    double *mu;        /* [J/T] magnetic moment p_perp^2 / (2 m B) */
+    double *t;         /* [s] time reached */
+    int32_t *status;   /* enum gcp_status */
+    int64_t *steps;    /* steps taken */
+    double *cpu;       /* [s] CPU time spent on this particle */
+};
+
+/* Allocates all arrays for n particles (zeroed); returns 0 or GCP_ERR_NOMEM. */
+int gcp_particles_alloc(struct gcp_particles *p, size_t n);
+void gcp_particles_free(struct gcp_particles *p);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

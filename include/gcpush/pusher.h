@@ -1,0 +1,115 @@
+/* gcpush/pusher.h -- pusher types and the block stepper.
+ *
+ * Each pusher is one file in src/pushers/ exporting one
+ * `const struct gcp_pusher_type`; a scene picks it by name once.  Full-orbit
+ * pushers contribute only their momentum update (the batch kernel from
+ * kernels.h); the step around it is shared:
+ *
+ *   drift-kick-drift (synchronised leapfrog, second order, time reversible):
+ *     x_{1/2} = x_n + (u_n / gamma_n) dt/2
+ *     u_{n+1} = kick(u_n; E(x_{1/2}, t_n + dt/2), B(x_{1/2}, t_n + dt/2); dt)
+ *     x_{n+1} = x_{1/2} + (u_{n+1} / gamma_{n+1}) dt/2
+ *
+ * so x and u are known at the same time after every step (output,
+ * checkpoints and invariants need no half-step bookkeeping).
+ */
+#ifndef GCPUSH_PUSHER_H
+#define GCPUSH_PUSHER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "field.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum gcp_pusher_kind {
+    GCP_FULL_ORBIT = 0,
+    GCP_GUIDING_CENTRE = 1
+};
+
+/* Momentum update of n particles of one species (kernels.h batch form). */
+typedef void (*gcp_kick_batch_fn)(size_t n, double *ux, double *uy, double *uz,
+                                  const double *Ex, const double *Ey, const double *Ez,
+                                  const double *Bx, const double *By, const double *Bz,
+                                  double q, double m, double dt);
+
+struct gcp_pusher_type {
+    const char *name;          /* run-file name: "boris", "vay", ... */
+    const char *doc;           /* one line for --help, with the reference */
+    int order;                 /* global order of accuracy in dt */
+    enum gcp_pusher_kind kind;
+    gcp_kick_batch_fn kick;    /* full orbit: the momentum update */
+};
+
+extern const struct gcp_pusher_type gcp_pusher_boris;
+extern const struct gcp_pusher_type gcp_pusher_boris_zu;
+extern const struct gcp_pusher_type gcp_pusher_vay;
+extern const struct gcp_pusher_type gcp_pusher_higuera_cary;
+
+/* The pusher called `name`, or NULL. */
+const struct gcp_pusher_type *gcp_pusher_lookup(const char *name);
+/* NULL-terminated list of all pushers. */
+const struct gcp_pusher_type *const *gcp_pusher_types(void);
+
+/* A block: n lanes of one species, struct-of-arrays, pushed together.
+ * The stepper keeps the active lanes in [0, n_active): a lane whose status
+ * turns non-zero is swapped to the end (with its lane index in `index`), so
+ * the inner loops run dense, branch-free, over live particles only. */
+struct gcp_block {
+    size_t n;            /* lanes */
+    size_t n_active;     /* live lanes, always the first n_active */
+    double q;            /* [C] charge */
+    double m;            /* [kg] mass */
+    double *x, *y, *z;   /* [m] */
+    double *ux, *uy, *uz;/* [m/s] u = gamma v */
+    double *t;           /* [s] time of each lane (set when it stops or at the end) */
+    int32_t *status;     /* enum gcp_status */
+    int64_t *steps;      /* steps taken */
+    size_t *index;       /* caller's index of the particle in each lane */
+    /* scratch for gathered fields, n entries each (owned by the block) */
+    double *Bx, *By, *Bz, *Ex, *Ey, *Ez;
+    int32_t *fstatus;
+};
+
+/* Allocates a block of n lanes (all arrays; index[i] = i). */
+int gcp_block_alloc(struct gcp_block *b, size_t n);
+void gcp_block_free(struct gcp_block *b);
+
+/* Called by the stepper every `every` steps (and at the start) with the
+ * active lanes, for trajectory samples and invariants. */
+struct gcp_sampler {
+    int64_t every;  /* steps between calls; 0: never */
+    void (*fn)(const struct gcp_block *b, double t, void *ctx);
+    void *ctx;
+};
+
+/* Classifies freshly filled lanes before the first step (non-finite state,
+ * outside the field's domain): such lanes get their status, t = t0 and
+ * 0 steps, and are retired.  Returns the number of live lanes. */
+size_t gcp_block_start(struct gcp_block *b, const struct gcp_field *f, double t0);
+
+/* Advances the live lanes of b by up to nsteps steps of dt [s] from time t0
+ * with the full-orbit pusher p in field f.  Checks every step for
+ * non-finite states and the field's domain (r_inner, r_outer, z_max, grid),
+ * setting the lane's status and t and retiring it.  Returns the number of
+ * live lanes. */
+size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
+                            const struct gcp_pusher_type *p, double t0, double dt,
+                            int64_t nsteps, const struct gcp_sampler *sampler);
+
+/* Single-particle convenience: pushes one full-orbit particle nsteps steps
+ * of dt from *t, updating t, x [m], u [m/s] in place; cb (may be NULL) is
+ * called after every step and stops the push by returning non-zero.
+ * Returns the particle's final status (enum gcp_status). */
+typedef int (*gcp_step_cb)(double t, const double x[3], const double u[3], void *ctx);
+int gcp_orbit_push(const struct gcp_field *f, const struct gcp_pusher_type *p, double q, double m,
+                   double *t, double x[3], double u[3], double dt, int64_t nsteps, gcp_step_cb cb,
+                   void *ctx);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,125 @@
+/* gcpush/run.h -- run files to scenes.
+ *
+ * A run file (INI, read with libinih) describes a scene: field, particle
+ * populations, integrator, output.  gcp_scene_load() validates all of it
+ * before anything runs; every error names file, line and key.  Initial
+ * states are a pure function of (seed, particle id), so any split of the
+ * ensemble over ranks produces the same particles.
+ */
+#ifndef GCPUSH_RUN_H
+#define GCPUSH_RUN_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "field.h"
+#include "particles.h"
+#include "pusher.h"
+#include "section.h"
+#include "units.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum gcp_spread { GCP_FIXED = 0, GCP_LIN = 1, GCP_LOG = 2 };
+
+/* A range "a .. b [lin|log]" or a single value (lo == hi, GCP_FIXED). */
+struct gcp_range {
+    double lo, hi;        /* [SI unit of the quantity] */
+    enum gcp_spread spread;
+};
+
+enum gcp_placement { GCP_PLACE_POSITION = 0, GCP_PLACE_L_SHELL = 1 };
+enum gcp_aim { GCP_AIM_DIRECTION = 0, GCP_AIM_PITCH = 1, GCP_AIM_ISOTROPIC = 2 };
+
+/* One [particles] or [particles.NAME] section. */
+struct gcp_population {
+    char name[32];
+    struct gcp_species species;
+    int64_t count;          /* particles in this population */
+    int64_t first_id;       /* ids first_id .. first_id + count - 1 */
+    struct gcp_range energy;/* [J] kinetic energy */
+    enum gcp_placement placement;
+    double position[3];     /* [m] (GCP_PLACE_POSITION) */
+    struct gcp_range L;     /* [1] equatorial L shell (GCP_PLACE_L_SHELL) */
+    struct gcp_range longitude; /* [rad] of the L-shell start */
+    enum gcp_aim aim;
+    double direction[3];    /* [1] unit velocity direction (GCP_AIM_DIRECTION) */
+    struct gcp_range pitch; /* [rad] pitch angle to the local B (equatorial for L shells) */
+    int has_phase;          /* [bool] gyrophase given; else uniform random */
+    double phase;           /* [rad] gyrophase about the local B */
+    double dt;              /* [s] resolved step of this population */
+    int64_t nsteps;         /* steps per particle (duration / dt) */
+    int64_t trajectory_every; /* steps between trajectory samples; 0: none */
+};
+
+struct gcp_scene {
+    char *path;             /* run file path */
+    char *text;             /* full run file text (stored in the output) */
+    char name[64];
+    char field_model[32];
+    struct gcp_field *field;
+    uint64_t seed;
+    struct gcp_population *pops;
+    size_t npop;
+    int64_t total;          /* particles in all populations */
+    const struct gcp_pusher_type *pusher;
+    double duration;        /* [s] resolved run time */
+    double duration_given;  /* as written: seconds or periods */
+    enum gcp_period duration_period;
+    double dt_given;
+    enum gcp_period dt_period;
+    char output[1024];      /* output file path */
+    int64_t trajectory_samples; /* samples per particle, incl. the initial one (0: none) */
+};
+
+/* Reads, validates and resolves a run file (field built, periods turned
+ * into seconds: the duration with the first particle's period; a step in
+ * gyro periods with the shortest initial gyro period of each population,
+ * so every particle gets at least the asked resolution; a step in bounce or
+ * drift periods with each population's first particle).  Returns 0 or a negative code
+ * with err set; *out is NULL on error. */
+int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *err);
+/* The same from text in memory (path is used in messages only). */
+int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
+                    struct gcp_error *err);
+void gcp_scene_free(struct gcp_scene *s);
+
+/* Initial full-orbit state of particle id (0 <= id < total): position x [m],
+ * u = gamma v [m/s], and its population index.  A pure function of
+ * (scene seed, id).  Returns 0, or GCP_ERR_VALUE for an id out of range. */
+int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3],
+                            double u[3]);
+
+/* The period of `which` for a particle of species sp with state (x, u) in
+ * field f: gyro 2 pi gamma m / (|q| B) anywhere; bounce and drift in the
+ * dipole from guiding-centre theory.  Returns 0 or GCP_ERR_STATE when the
+ * field has no such period. */
+int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp_species *sp,
+                  const double x[3], const double u[3], enum gcp_period which, double *period);
+
+struct gcp_results;
+
+/* Work distribution for gcp_scene_push(): returns the next chunk index to
+ * push (chunks are gcp_scene_chunk_count() slices of the ensemble), or -1
+ * when there is none left.  A serial run counts up; MPI ranks share an
+ * atomic counter. */
+typedef int64_t (*gcp_next_chunk_fn)(void *ctx);
+
+/* Particles per chunk: one block of the stepper, one population. */
+#define GCP_CHUNK 64
+
+int64_t gcp_scene_chunk_count(const struct gcp_scene *s);
+/* Ids [first, first + count) of chunk c. */
+void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64_t *count);
+
+/* Pushes the chunks handed out by next() and appends their rows to res.
+ * Per-particle failures are statuses; returns 0, or GCP_ERR_NOMEM. */
+int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res, gcp_next_chunk_fn next,
+                   void *ctx, struct gcp_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,314 @@
+/* The output file: one HDF5 file per run, written collectively by every rank
+ * through MPI-IO (parallel HDF5).  Layout: DESIGN.md, "HDF5 output".
+ *
+ * Each rank holds its rows sorted by particle id; its file selection is the
+ * union of hyperslabs of its runs of consecutive ids, in the same order, so
+ * one collective H5Dwrite per dataset puts every row in place.  The file is
+ * written under a temporary name and renamed by rank 0 only when every rank
+ * succeeded; otherwise the temporary file is removed. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <hdf5.h>
+
+#include "gcpush/io.h"
+
+#ifndef GCP_VERSION
+#define GCP_VERSION "unknown"
+#endif
+#ifndef GCP_GIT_HASH
+#define GCP_GIT_HASH "unknown"
+#endif
+#ifndef GCP_BUILD_FLAGS
+#define GCP_BUILD_FLAGS "unknown"
+#endif
+
+struct writer {
+    hid_t file;
+    hid_t dxpl;              /* collective transfer */
+    const struct gcp_results *r;
+    int64_t total;           /* rows in the file */
+    int bad;                 /* a call failed on this rank */
+};
+
+/* Selects this rank's rows (runs of consecutive ids) in a dataset space of
+ * dims {total, d1, d2} (rank 1..3). */
+static void select_rows(hid_t fspace, const struct gcp_results *r, int rank, const hsize_t *dims)
+{
+    H5Sselect_none(fspace);
+    int64_t k = 0;
+    while (k < r->n) {
+        int64_t e = k + 1;
+        while (e < r->n && r->id[e] == r->id[e - 1] + 1) e++;
+        hsize_t start[3] = {(hsize_t)r->id[k], 0, 0};
+        hsize_t count[3] = {(hsize_t)(e - k), rank > 1 ? dims[1] : 1, rank > 2 ? dims[2] : 1};
+        H5Sselect_hyperslab(fspace, H5S_SELECT_OR, start, NULL, count, NULL);
+        k = e;
+    }
+}
+
+/* Creates dataset `name` of shape {total, tail...} and writes this rank's
+ * rows from `data` (rows in id order, contiguous). */
+static void write_rows(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
+                       hsize_t d1, hsize_t d2, const void *data)
+{
+    hsize_t dims[3] = {(hsize_t)w->total, d1, d2};
+    hid_t fspace = H5Screate_simple(rank, dims, NULL);
+    hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    select_rows(fspace, w->r, rank, dims);
+    hsize_t per_row = (rank > 1 ? d1 : 1) * (rank > 2 ? d2 : 1);
+    hsize_t mdims = (hsize_t)w->r->n * per_row;
+    hsize_t one = 1;
+    hid_t mspace = H5Screate_simple(1, mdims ? &mdims : &one, NULL);
+    if (!mdims) H5Sselect_none(mspace);
+    if (dset < 0 || H5Dwrite(dset, type, mspace, fspace, w->dxpl, data) < 0) w->bad = 1;
+    H5Sclose(mspace);
+    H5Sclose(fspace);
+    if (dset >= 0) H5Dclose(dset);
+}
+
+/* A small dataset written by rank 0 alone (others select nothing). */
+static void write_rank0(struct writer *w, hid_t loc, const char *name, hid_t type, hsize_t n,
+                        const void *data, int me)
+{
+    hid_t fspace = H5Screate_simple(1, &n, NULL);
+    hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    hid_t mspace = H5Screate_simple(1, &n, NULL);
+    if (me != 0) {
+        H5Sselect_none(fspace);
+        H5Sselect_none(mspace);
+    }
+    if (dset < 0 || H5Dwrite(dset, type, mspace, fspace, w->dxpl, data) < 0) w->bad = 1;
+    H5Sclose(mspace);
+    H5Sclose(fspace);
+    if (dset >= 0) H5Dclose(dset);
+}
+
+static void attr_str(struct writer *w, hid_t loc, const char *name, const char *value)
+{
+    hid_t t = H5Tcopy(H5T_C_S1);
+    H5Tset_size(t, strlen(value) + 1);
+    H5Tset_strpad(t, H5T_STR_NULLTERM);
+    hid_t sp = H5Screate(H5S_SCALAR);
+    hid_t a = H5Acreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT);
+    if (a < 0 || H5Awrite(a, t, value) < 0) w->bad = 1;
+    if (a >= 0) H5Aclose(a);
+    H5Sclose(sp);
+    H5Tclose(t);
+}
+
+static void attr_num(struct writer *w, hid_t loc, const char *name, hid_t type, const void *v)
+{
+    hid_t sp = H5Screate(H5S_SCALAR);
+    hid_t a = H5Acreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
+    if (a < 0 || H5Awrite(a, type, v) < 0) w->bad = 1;
+    if (a >= 0) H5Aclose(a);
+    H5Sclose(sp);
+}
+
+static hid_t group(struct writer *w, hid_t loc, const char *name)
+{
+    hid_t g = H5Gcreate2(loc, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    if (g < 0) w->bad = 1;
+    return g;
+}
+
+static void write_particles(struct writer *w, const struct gcp_scene *sc)
+{
+    const struct gcp_results *r = w->r;
+    hid_t g = group(w, w->file, "particles");
+    write_rows(w, g, "id", H5T_NATIVE_INT64, 1, 0, 0, r->id);
+    /* species name, charge and mass of each row, from its population */
+    char (*names)[32] = calloc((size_t)(r->n ? r->n : 1), 32);
+    double *q = malloc((size_t)(r->n ? r->n : 1) * sizeof *q);
+    double *m = malloc((size_t)(r->n ? r->n : 1) * sizeof *m);
+    double *dt = malloc((size_t)(r->n ? r->n : 1) * sizeof *dt);
+    if (!names || !q || !m || !dt) {
+        w->bad = 1;
+    } else {
+        for (int64_t k = 0; k < r->n; k++) {
+            const struct gcp_species *sp = &sc->pops[r->pop[k]].species;
+            snprintf(names[k], 32, "%s", sp->name);
+            q[k] = sp->charge;
+            m[k] = sp->mass;
+            dt[k] = sc->pops[r->pop[k]].dt;
+        }
+    }
+    hid_t st = H5Tcopy(H5T_C_S1);
+    H5Tset_size(st, 32);
+    H5Tset_strpad(st, H5T_STR_NULLTERM);
+    write_rows(w, g, "species", st, 1, 0, 0, names);
+    H5Tclose(st);
+    write_rows(w, g, "charge", H5T_NATIVE_DOUBLE, 1, 0, 0, q);
+    write_rows(w, g, "mass", H5T_NATIVE_DOUBLE, 1, 0, 0, m);
+    write_rows(w, g, "dt", H5T_NATIVE_DOUBLE, 1, 0, 0, dt);
+    free(dt);
+    free(names);
+    free(q);
+    free(m);
+
+    hid_t gi = group(w, g, "initial");
+    write_rows(w, gi, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x0);
+    write_rows(w, gi, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u0);
+    H5Gclose(gi);
+    hid_t gf = group(w, g, "final");
+    write_rows(w, gf, "t", H5T_NATIVE_DOUBLE, 1, 0, 0, r->t);
+    write_rows(w, gf, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x);
+    write_rows(w, gf, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u);
+    write_rows(w, gf, "status", H5T_NATIVE_INT32, 1, 0, 0, r->status);
+    /* the status code -> name table, in code order */
+    {
+        hid_t ds = H5Dopen2(gf, "status", H5P_DEFAULT);
+        char names_attr[GCP_STATUS_COUNT * 16 + 1] = "";
+        for (int s = 0; s < GCP_STATUS_COUNT; s++) {
+            strcat(names_attr, gcp_status_name(s));
+            if (s + 1 < GCP_STATUS_COUNT) strcat(names_attr, " ");
+        }
+        attr_str(w, ds, "names", names_attr);
+        H5Dclose(ds);
+    }
+    H5Gclose(gf);
+    H5Gclose(g);
+}
+
+static void write_trajectories(struct writer *w)
+{
+    const struct gcp_results *r = w->r;
+    hid_t g = group(w, w->file, "trajectories");
+    const hsize_t S = (hsize_t)r->S;
+    write_rows(w, g, "t", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_t);
+    write_rows(w, g, "x", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_x);
+    write_rows(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u);
+    write_rows(w, g, "count", H5T_NATIVE_INT64, 1, 0, 0, r->traj_count);
+    H5Gclose(g);
+}
+
+static void write_timing(struct writer *w, MPI_Comm comm, int me, int nranks)
+{
+    const struct gcp_results *r = w->r;
+    hid_t g = group(w, w->file, "timing");
+    write_rows(w, g, "cpu_seconds", H5T_NATIVE_DOUBLE, 1, 0, 0, r->cpu);
+    write_rows(w, g, "steps", H5T_NATIVE_INT64, 1, 0, 0, r->steps);
+    double *rank_cpu = calloc((size_t)nranks, sizeof *rank_cpu);
+    int64_t *rank_n = calloc((size_t)nranks, sizeof *rank_n);
+    if (!rank_cpu || !rank_n) {
+        w->bad = 1;
+    } else {
+        MPI_Allgather(&r->rank_cpu, 1, MPI_DOUBLE, rank_cpu, 1, MPI_DOUBLE, comm);
+        MPI_Allgather(&r->n, 1, MPI_INT64_T, rank_n, 1, MPI_INT64_T, comm);
+        write_rank0(w, g, "rank_cpu_seconds", H5T_NATIVE_DOUBLE, (hsize_t)nranks, rank_cpu, me);
+        write_rank0(w, g, "rank_particles", H5T_NATIVE_INT64, (hsize_t)nranks, rank_n, me);
+    }
+    free(rank_cpu);
+    free(rank_n);
+    H5Gclose(g);
+}
+
+static void write_root_attrs(struct writer *w, const struct gcp_scene *sc, int nranks)
+{
+    hid_t f = w->file;
+    attr_str(w, f, "gcpush_version", GCP_VERSION);
+    attr_str(w, f, "git_hash", GCP_GIT_HASH);
+    attr_str(w, f, "build_flags", GCP_BUILD_FLAGS);
+    attr_str(w, f, "run_file", sc->text);
+    attr_str(w, f, "run_file_name", sc->path);
+    attr_str(w, f, "units", "SI");
+    attr_str(w, f, "scene", sc->name);
+    attr_str(w, f, "field", sc->field_model);
+    attr_str(w, f, "method", sc->pusher->name);
+    attr_num(w, f, "ranks", H5T_NATIVE_INT, &nranks);
+    attr_num(w, f, "duration", H5T_NATIVE_DOUBLE, &sc->duration);
+    attr_num(w, f, "seed", H5T_NATIVE_UINT64, &sc->seed);
+    attr_num(w, f, "particles", H5T_NATIVE_INT64, &sc->total);
+}
+
+/* Temporary name next to the output, unique per run (rank 0's pid). */
+static void temp_name(const struct gcp_scene *sc, MPI_Comm comm, char *buf, size_t len)
+{
+    long pid = (long)getpid();
+    MPI_Bcast(&pid, 1, MPI_LONG, 0, comm);
+    snprintf(buf, len, "%s.tmp-%ld", sc->output, pid);
+}
+
+int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err)
+{
+    int me;
+    MPI_Comm_rank(comm, &me);
+    char tmp[1100];
+    temp_name(sc, comm, tmp, sizeof tmp);
+    int ok = 1, code = 0;
+    if (me == 0) {
+        FILE *fp = fopen(tmp, "wb");
+        if (!fp) {
+            ok = 0;
+            code = errno;
+        } else {
+            fclose(fp);
+            remove(tmp);
+        }
+    }
+    MPI_Bcast(&ok, 1, MPI_INT, 0, comm);
+    MPI_Bcast(&code, 1, MPI_INT, 0, comm);
+    if (!ok)
+        return gcp_error_set(err, GCP_ERR_IO, "%s: [output] file: cannot write '%s': %s",
+                             sc->path, sc->output, strerror(code));
+    return 0;
+}
+
+int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
+                     struct gcp_error *err)
+{
+    int me, nranks;
+    MPI_Comm_rank(comm, &me);
+    MPI_Comm_size(comm, &nranks);
+    H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* errors are reported as messages, not stacks */
+    char tmp[1100];
+    temp_name(sc, comm, tmp, sizeof tmp);
+
+    struct writer w = {.r = r, .total = sc->total};
+    hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+    H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
+    H5Pset_all_coll_metadata_ops(fapl, 1);
+    H5Pset_coll_metadata_write(fapl, 1);
+    w.file = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+    H5Pclose(fapl);
+    int any_bad = w.file < 0;
+    MPI_Allreduce(MPI_IN_PLACE, &any_bad, 1, MPI_INT, MPI_MAX, comm);
+    if (any_bad) {
+        if (w.file >= 0) H5Fclose(w.file);
+        if (me == 0) remove(tmp);
+        return gcp_error_set(err, GCP_ERR_IO, "%s: cannot create '%s'", sc->output, tmp);
+    }
+    w.dxpl = H5Pcreate(H5P_DATASET_XFER);
+    H5Pset_dxpl_mpio(w.dxpl, H5FD_MPIO_COLLECTIVE);
+
+    write_root_attrs(&w, sc, nranks);
+    write_particles(&w, sc);
+    if (r->S) write_trajectories(&w);
+    write_timing(&w, comm, me, nranks);
+
+    H5Pclose(w.dxpl);
+    if (H5Fclose(w.file) < 0) w.bad = 1;
+    MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
+    int renamed = 0, code = 0;
+    if (me == 0) {
+        if (w.bad) {
+            remove(tmp);
+        } else if (rename(tmp, sc->output) == 0) {
+            renamed = 1;
+        } else {
+            code = errno;
+            remove(tmp);
+        }
+    }
+    MPI_Bcast(&renamed, 1, MPI_INT, 0, comm);
+    MPI_Bcast(&code, 1, MPI_INT, 0, comm);
+    if (w.bad) return gcp_error_set(err, GCP_ERR_HDF5, "%s: writing the output failed", sc->output);
+    if (!renamed)
+        return gcp_error_set(err, GCP_ERR_IO, "%s: cannot rename the finished output: %s",
+                             sc->output, strerror(code));
+    return 0;
+}

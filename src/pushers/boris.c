@@ -1,0 +1,13 @@
+/* Full-orbit pusher "boris": the momentum update is gcp_push_boris() of
+ * kernels.h (its equations and reference are there); the drift-kick-drift
+ * step around it is shared (fo_step.c). */
+#include "gcpush/kernels.h"
+#include "gcpush/pusher.h"
+
+const struct gcp_pusher_type gcp_pusher_boris = {
+    .name = "boris",
+    .doc = "Relativistic Boris (Boris 1970; Birdsall & Langdon 1991): exact |u| in pure B, volume preserving, gyrophase lags as 2 atan(omega dt/2)",
+    .order = 2,
+    .kind = GCP_FULL_ORBIT,
+    .kick = gcp_push_boris_batch,
+};

@@ -1,0 +1,135 @@
+/* The scene's push loop: chunks of one population -> one block each.
+ *
+ * Everything the scene does not ask for is left out here, once, not per
+ * step: no trajectory sampler unless output asks for one; the field and the
+ * pusher are fixed for the run (gcp_block_advance_fo holds the inner loops). */
+#include <math.h>
+#include <string.h>
+#include <time.h>
+
+#include "gcpush/io.h"
+#include "gcpush/run.h"
+
+int64_t gcp_scene_chunk_count(const struct gcp_scene *s)
+{
+    int64_t n = 0;
+    for (size_t k = 0; k < s->npop; k++) n += (s->pops[k].count + GCP_CHUNK - 1) / GCP_CHUNK;
+    return n;
+}
+
+void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64_t *count)
+{
+    *first = 0;
+    *count = 0;
+    for (size_t k = 0; k < s->npop; k++) {
+        const struct gcp_population *p = &s->pops[k];
+        const int64_t nc = (p->count + GCP_CHUNK - 1) / GCP_CHUNK;
+        if (c < nc) {
+            *first = p->first_id + c * GCP_CHUNK;
+            const int64_t left = p->count - c * GCP_CHUNK;
+            *count = left < GCP_CHUNK ? left : GCP_CHUNK;
+            return;
+        }
+        c -= nc;
+    }
+}
+
+static double cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+struct traj_ctx {
+    struct gcp_results *res;
+    int64_t row0;   /* first result row of this chunk */
+    int64_t sample; /* next sample index */
+};
+
+/* Records one trajectory sample of every live lane. */
+static void record(const struct gcp_block *b, double t, void *vctx)
+{
+    struct traj_ctx *c = vctx;
+    struct gcp_results *r = c->res;
+    const int64_t S = r->S, k = c->sample++;
+    if (k >= S) return;
+    for (size_t i = 0; i < b->n_active; i++) {
+        const int64_t row = c->row0 + (int64_t)b->index[i];
+        const size_t j = (size_t)(row * S + k);
+        r->traj_t[j] = t;
+        r->traj_x[3 * j] = b->x[i], r->traj_x[3 * j + 1] = b->y[i], r->traj_x[3 * j + 2] = b->z[i];
+        r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i], r->traj_u[3 * j + 2] = b->uz[i];
+        r->traj_count[row] = k + 1;
+    }
+}
+
+int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res, gcp_next_chunk_fn next,
+                   void *ctx, struct gcp_error *err)
+{
+    struct gcp_block b;
+    if (gcp_block_alloc(&b, GCP_CHUNK)) return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    const double t0 = 0.0;
+    const int64_t S = res->S;
+    int64_t c;
+    while ((c = next(ctx)) >= 0) {
+        int64_t first, count;
+        gcp_scene_chunk(s, c, &first, &count);
+        if (count <= 0) continue;
+        if (gcp_results_reserve(res, count)) {
+            gcp_block_free(&b);
+            return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for results");
+        }
+        const int64_t row0 = res->n;
+        int pop = 0;
+        for (int64_t i = 0; i < count; i++) {
+            double x[3], u[3];
+            gcp_scene_initial_state(s, first + i, &pop, x, u);
+            const int64_t row = row0 + i;
+            res->id[row] = first + i;
+            res->pop[row] = pop;
+            memcpy(&res->x0[3 * row], x, sizeof x);
+            memcpy(&res->u0[3 * row], u, sizeof u);
+            b.x[i] = x[0], b.y[i] = x[1], b.z[i] = x[2];
+            b.ux[i] = u[0], b.uy[i] = u[1], b.uz[i] = u[2];
+            b.index[i] = (size_t)i;
+            b.status[i] = 0;
+            b.steps[i] = 0;
+            b.t[i] = t0;
+        }
+        b.n = b.n_active = (size_t)count;
+        b.q = s->pops[pop].species.charge;
+        b.m = s->pops[pop].species.mass;
+        if (S) {
+            for (int64_t j = row0 * S; j < (row0 + count) * S; j++) {
+                res->traj_t[j] = NAN;
+                for (int d = 0; d < 3; d++) res->traj_x[3 * j + d] = res->traj_u[3 * j + d] = NAN;
+            }
+            for (int64_t i = 0; i < count; i++) res->traj_count[row0 + i] = 0;
+        }
+        struct traj_ctx tc = {res, row0, 0};
+        const struct gcp_sampler sampler = {s->pops[pop].trajectory_every, record, &tc};
+        const double c0 = cpu_now();
+        gcp_block_start(&b, s->field, t0);
+        if (S) record(&b, t0, &tc);
+        gcp_block_advance_fo(&b, s->field, s->pusher, t0, s->pops[pop].dt, s->pops[pop].nsteps,
+                             S ? &sampler : NULL);
+        const double spent = cpu_now() - c0;
+        res->rank_cpu += spent;
+        int64_t total_steps = 0;
+        for (size_t i = 0; i < b.n; i++) total_steps += b.steps[i];
+        for (size_t i = 0; i < b.n; i++) {
+            const int64_t row = row0 + (int64_t)b.index[i];
+            res->t[row] = b.t[i];
+            res->x[3 * row] = b.x[i], res->x[3 * row + 1] = b.y[i], res->x[3 * row + 2] = b.z[i];
+            res->u[3 * row] = b.ux[i], res->u[3 * row + 1] = b.uy[i], res->u[3 * row + 2] = b.uz[i];
+            res->status[row] = b.status[i];
+            res->steps[row] = b.steps[i];
+            /* The block's CPU time, shared in proportion to steps taken. */
+            res->cpu[row] = total_steps ? spent * (double)b.steps[i] / (double)total_steps : 0.0;
+        }
+        res->n += count;
+    }
+    gcp_block_free(&b);
+    return 0;
+}

@@ -1,0 +1,525 @@
+/* Sections -> a validated, resolved scene; initial states from (seed, id). */
+#include <ctype.h>
+#include <errno.h>
+#include <stdint.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/kernels.h"
+#include "gcpush/run.h"
+#include "run_priv.h"
+
+/* ---- counter-based random numbers --------------------------------------
+ * Draw k of particle id is a pure function of (seed, id, k): the SplitMix64
+ * finaliser (Steele, Lea & Flood 2014) of a Weyl-sequence counter.  No
+ * state, so any split of the ensemble gives the same particles. */
+static uint64_t mix64(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+/* Uniform in (0, 1): 53 random bits, never 0 or 1. */
+static double draw(uint64_t seed, int64_t id, unsigned k)
+{
+    uint64_t z = mix64(seed * 0x9e3779b97f4a7c15ULL + (uint64_t)id * 16u + k + 1u);
+    return ((double)(z >> 11) + 0.5) * 0x1.0p-53;
+}
+
+static double spread(const struct gcp_range *r, double u)
+{
+    switch (r->spread) {
+    case GCP_LIN: return r->lo + (r->hi - r->lo) * u;
+    case GCP_LOG: return r->lo * exp(log(r->hi / r->lo) * u);
+    case GCP_FIXED: break;
+    }
+    return r->lo;
+}
+
+/* ---- value parsing ------------------------------------------------------ */
+
+/* "a .. b [lin|log]" or "a".  Quantities carry their unit on each side. */
+static int get_range(struct gcp_section *s, const char *key, enum gcp_quantity q, int required,
+                     struct gcp_range *r, struct gcp_error *err)
+{
+    const char *v = gcp_section_get(s, key, NULL);
+    if (!v) {
+        if (!required) return 0;
+        return gcp_error_set(err, GCP_ERR_MISSING, "%s:%d: [%s] %s: required key is missing",
+                             s->file, s->line, s->name, key);
+    }
+    char buf[256], why[256];
+    if (strlen(v) >= sizeof buf)
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "value too long");
+    strcpy(buf, v);
+    char *dots = strstr(buf, "..");
+    if (!dots) {
+        r->spread = GCP_FIXED;
+        if (gcp_parse_quantity(buf, q, &r->lo, NULL, why, sizeof why))
+            return gcp_section_error(s, key, err, GCP_ERR_VALUE, "%s", why);
+        r->hi = r->lo;
+        return 1;
+    }
+    *dots = '\0';
+    char *rhs = dots + 2;
+    r->spread = GCP_LIN;
+    size_t n = strlen(rhs);
+    while (n && isspace((unsigned char)rhs[n - 1])) rhs[--n] = '\0';
+    if (n >= 3 && (strcmp(rhs + n - 3, "lin") == 0 || strcmp(rhs + n - 3, "log") == 0) &&
+        (n == 3 || isspace((unsigned char)rhs[n - 4]))) {
+        r->spread = rhs[n - 2] == 'o' ? GCP_LOG : GCP_LIN;
+        rhs[n - 3] = '\0';
+    }
+    if (gcp_parse_quantity(buf, q, &r->lo, NULL, why, sizeof why) ||
+        gcp_parse_quantity(rhs, q, &r->hi, NULL, why, sizeof why))
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "%s (a range is 'a .. b [lin|log]')",
+                                 why);
+    if (!(r->hi > r->lo))
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "range must have a < b");
+    if (r->spread == GCP_LOG && !(r->lo > 0))
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "a log range needs a > 0");
+    return 1;
+}
+
+static int get_count(struct gcp_section *s, const char *key, int required, int64_t lo, int64_t hi,
+                     int64_t *out, struct gcp_error *err)
+{
+    const char *v = gcp_section_get(s, key, NULL);
+    if (!v && !required) return 0;
+    if (!v)
+        return gcp_error_set(err, GCP_ERR_MISSING, "%s:%d: [%s] %s: required key is missing",
+                             s->file, s->line, s->name, key);
+    char *end;
+    errno = 0;
+    long long n = strtoll(v, &end, 10);
+    while (isspace((unsigned char)*end)) end++;
+    if (end == v || *end || errno)
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "expected a whole number, got '%.40s'",
+                                 v);
+    if (n < lo || n > hi)
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "must be in %lld .. %lld, got %lld",
+                                 (long long)lo, (long long)hi, n);
+    *out = n;
+    return 1;
+}
+
+static int positive(struct gcp_section *s, const char *key, double v, struct gcp_error *err)
+{
+    if (!(v > 0))
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "must be > 0");
+    return 0;
+}
+
+/* ---- sections ----------------------------------------------------------- */
+
+static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct gcp_population *p,
+                           struct gcp_error *err)
+{
+    int rc;
+    const char *dot = strchr(s->name, '.');
+    snprintf(p->name, sizeof p->name, "%s", dot ? dot + 1 : "particles");
+    char species[32];
+    if ((rc = gcp_section_string(s, "species", 1, species, sizeof species, err)) < 0) return rc;
+    if (strcmp(species, "custom") == 0) {
+        snprintf(p->species.name, sizeof p->species.name, "%s", p->name);
+        if ((rc = gcp_section_quantity(s, "charge", GCP_Q_CHARGE, 1, &p->species.charge, err)) < 0 ||
+            (rc = gcp_section_quantity(s, "mass", GCP_Q_MASS, 1, &p->species.mass, err)) < 0)
+            return rc;
+        if (p->species.charge == 0)
+            return gcp_section_error(s, "charge", err, GCP_ERR_VALUE, "must be non-zero");
+        if ((rc = positive(s, "mass", p->species.mass, err))) return rc;
+    } else if (gcp_species_lookup(species, &p->species)) {
+        return gcp_section_error(s, "species", err, GCP_ERR_UNKNOWN,
+                                 "unknown species '%s' (proton, electron, alpha, O+, custom)",
+                                 species);
+    }
+    if ((rc = get_count(s, "count", 1, 1, 1000000000, &p->count, err)) < 0) return rc;
+    if ((rc = get_range(s, "energy", GCP_Q_ENERGY, 1, &p->energy, err)) < 0) return rc;
+    if (!(p->energy.lo > 0))
+        return gcp_section_error(s, "energy", err, GCP_ERR_VALUE, "kinetic energy must be > 0");
+
+    /* Where: an L shell range (dipole) or one position. */
+    int hasL = (rc = get_range(s, "L", GCP_Q_NUMBER, 0, &p->L, err));
+    if (rc < 0) return rc;
+    int hasPos = (rc = gcp_section_vector(s, "position", GCP_Q_LENGTH, 0, p->position, err));
+    if (rc < 0) return rc;
+    if (hasL == hasPos)
+        return gcp_section_error(s, hasL ? "L" : "position", err, hasL ? GCP_ERR_VALUE : GCP_ERR_MISSING,
+                                 "give exactly one of L (dipole shells) or position");
+    if (hasL) {
+        if (strcmp(sc->field_model, "dipole") != 0)
+            return gcp_section_error(s, "L", err, GCP_ERR_VALUE,
+                                     "L shells need field = dipole (use position otherwise)");
+        if (!(p->L.lo > 1.0))
+            return gcp_section_error(s, "L", err, GCP_ERR_VALUE, "L must be > 1");
+        p->placement = GCP_PLACE_L_SHELL;
+        p->longitude = (struct gcp_range){0.0, 2.0 * GCP_PI, GCP_LIN};
+        if ((rc = get_range(s, "longitude", GCP_Q_ANGLE, 0, &p->longitude, err)) < 0) return rc;
+    } else {
+        p->placement = GCP_PLACE_POSITION;
+    }
+
+    /* Which way: a direction, or a pitch angle (value, range, isotropic). */
+    int hasDir = (rc = gcp_section_vector(s, "direction", GCP_Q_NUMBER, 0, p->direction, err));
+    if (rc < 0) return rc;
+    int hasPitch = gcp_section_get(s, "pitch", NULL) != NULL;
+    if (hasDir == hasPitch)
+        return gcp_section_error(s, hasDir ? "direction" : "pitch", err,
+                                 hasDir ? GCP_ERR_VALUE : GCP_ERR_MISSING,
+                                 "give exactly one of direction (unit vector) or pitch "
+                                 "(angle, range, or isotropic)");
+    if (hasDir) {
+        p->aim = GCP_AIM_DIRECTION;
+        double n = sqrt(p->direction[0] * p->direction[0] + p->direction[1] * p->direction[1] +
+                        p->direction[2] * p->direction[2]);
+        if (!(n > 0))
+            return gcp_section_error(s, "direction", err, GCP_ERR_VALUE, "must be non-zero");
+        for (int i = 0; i < 3; i++) p->direction[i] /= n;
+    } else {
+        const char *v = gcp_section_get(s, "pitch", NULL);
+        if (strcmp(v, "isotropic") == 0) {
+            p->aim = GCP_AIM_ISOTROPIC;
+        } else {
+            p->aim = GCP_AIM_PITCH;
+            if ((rc = get_range(s, "pitch", GCP_Q_ANGLE, 1, &p->pitch, err)) < 0) return rc;
+            if (p->pitch.spread == GCP_LOG)
+                return gcp_section_error(s, "pitch", err, GCP_ERR_VALUE, "a pitch range is lin");
+            if (p->pitch.lo < 0 || p->pitch.hi > GCP_PI)
+                return gcp_section_error(s, "pitch", err, GCP_ERR_VALUE,
+                                         "pitch angles lie in 0 .. 180 deg");
+        }
+        if ((rc = gcp_section_quantity(s, "phase", GCP_Q_ANGLE, 0, &p->phase, err)) < 0) return rc;
+        p->has_phase = rc;
+    }
+    return gcp_section_check_unused(
+        s, "species charge mass count energy L longitude position direction pitch phase", err);
+}
+
+/* trajectory = none | every N steps | N samples (evenly over the run). */
+static int parse_trajectory(struct gcp_section *s, int64_t *every, int64_t *samples,
+                            struct gcp_error *err)
+{
+    const char *v = gcp_section_get(s, "trajectory", NULL);
+    *every = *samples = 0;
+    if (!v || strcmp(v, "none") == 0) return 0;
+    long long n;
+    char unit[16];
+    int used = 0;
+    if (sscanf(v, "every %lld %15s %n", &n, unit, &used) == 2 && !v[used] && n >= 1 &&
+        (strcmp(unit, "steps") == 0 || strcmp(unit, "step") == 0)) {
+        *every = n;
+        return 0;
+    }
+    used = 0;
+    if (sscanf(v, "%lld %15s %n", &n, unit, &used) == 2 && !v[used] && n >= 2 &&
+        strcmp(unit, "samples") == 0) {
+        *samples = n;
+        return 0;
+    }
+    return gcp_section_error(s, "trajectory", err, GCP_ERR_VALUE,
+                             "expected 'none', 'every N steps' (N >= 1) or 'N samples' (N >= 2), "
+                             "got '%.40s'", v);
+}
+
+static const char *const known_sections[] = {"scene", "field", "integrator", "diagnostics",
+                                             "output", NULL};
+
+static int check_sections(struct gcp_run_file *rf, struct gcp_error *err)
+{
+    for (size_t i = 0; i < rf->nsec; i++) {
+        const char *n = rf->sec[i].name;
+        int ok = strcmp(n, "particles") == 0 || strncmp(n, "particles.", 10) == 0;
+        for (const char *const *k = known_sections; !ok && *k; k++) ok = strcmp(n, *k) == 0;
+        if (!ok)
+            return gcp_error_set(err, GCP_ERR_UNKNOWN,
+                                 "%s:%d: [%s]: unknown section (scene, field, particles, "
+                                 "particles.NAME, integrator, diagnostics, output)",
+                                 rf->path, rf->sec[i].line, n);
+    }
+    static const char *const required[] = {"scene", "integrator", "output", NULL};
+    for (const char *const *k = required; *k; k++)
+        if (!gcp_run_file_section(rf, *k))
+            return gcp_error_set(err, GCP_ERR_MISSING, "%s: [%s] section is missing", rf->path,
+                                 *k);
+    return 0;
+}
+
+static const char *period_name(enum gcp_period p)
+{
+    return p == GCP_PERIOD_GYRO ? "gyro" : p == GCP_PERIOD_BOUNCE ? "bounce" : "drift";
+}
+
+/* The duration in periods is that of the scene's first particle. */
+static int resolve_duration(struct gcp_scene *sc, struct gcp_section *s, struct gcp_error *err)
+{
+    if (sc->duration_period == GCP_PERIOD_NONE) {
+        sc->duration = sc->duration_given;
+        return 0;
+    }
+    int pop;
+    double x[3], u[3], T;
+    gcp_scene_initial_state(sc, 0, &pop, x, u);
+    if (gcp_period_of(sc->field, sc->field_model, &sc->pops[pop].species, x, u,
+                      sc->duration_period, &T))
+        return gcp_section_error(s, "duration", err, GCP_ERR_VALUE,
+                                 "the first particle has no %s period in field '%s' "
+                                 "(give the time in s, ms, us)",
+                                 period_name(sc->duration_period), sc->field_model);
+    sc->duration = sc->duration_given * T;
+    return 0;
+}
+
+/* A step in gyro periods resolves against the shortest initial gyro period
+ * of the population (every particle then has at least that resolution); in
+ * bounce or drift periods against the population's first particle. */
+static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp_section *s,
+                      struct gcp_error *err)
+{
+    if (sc->dt_period == GCP_PERIOD_NONE) {
+        p->dt = sc->dt_given;
+        return 0;
+    }
+    const int64_t last = sc->dt_period == GCP_PERIOD_GYRO ? p->first_id + p->count : p->first_id + 1;
+    double Tmin = INFINITY;
+    for (int64_t id = p->first_id; id < last; id++) {
+        int pop;
+        double x[3], u[3], T;
+        gcp_scene_initial_state(sc, id, &pop, x, u);
+        if (gcp_period_of(sc->field, sc->field_model, &p->species, x, u, sc->dt_period, &T))
+            return gcp_section_error(s, "dt", err, GCP_ERR_VALUE,
+                                     "particle %lld of [particles%s%s] has no %s period in "
+                                     "field '%s' (give dt in s, ms, us)",
+                                     (long long)id, strcmp(p->name, "particles") ? "." : "",
+                                     strcmp(p->name, "particles") ? p->name : "",
+                                     period_name(sc->dt_period), sc->field_model);
+        Tmin = fmin(Tmin, T);
+    }
+    p->dt = sc->dt_given * Tmin;
+    return 0;
+}
+
+static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp_error *err)
+{
+    int rc;
+    if ((rc = check_sections(rf, err))) return rc;
+
+    struct gcp_section *s = gcp_run_file_section(rf, "scene");
+    if ((rc = gcp_section_string(s, "name", 1, sc->name, sizeof sc->name, err)) < 0 ||
+        (rc = gcp_section_string(s, "field", 1, sc->field_model, sizeof sc->field_model, err)) < 0 ||
+        (rc = gcp_section_time(s, "duration", 1, &sc->duration_given, &sc->duration_period, err)) < 0)
+        return rc;
+    if ((rc = positive(s, "duration", sc->duration_given, err))) return rc;
+    int64_t seed = 0;
+    if ((rc = get_count(s, "seed", 0, 0, INT64_MAX, &seed, err)) < 0) return rc;
+    sc->seed = (uint64_t)seed;
+    if ((rc = gcp_section_check_unused(s, "name field duration seed", err))) return rc;
+
+    /* The field: a missing [field] section is an empty one (models with all
+     * keys optional, like the dipole, need none). */
+    struct gcp_section empty = {.file = rf->path, .name = "field"};
+    struct gcp_section *fs = gcp_run_file_section(rf, "field");
+    if (!gcp_field_type_lookup(sc->field_model))
+        return gcp_section_error(s, "field", err, GCP_ERR_UNKNOWN,
+                                 "unknown field model '%s' (uniform, mirror, dipole, tokamak)",
+                                 sc->field_model);
+    if ((rc = gcp_field_from_section(sc->field_model, fs ? fs : &empty, &sc->field, err)) < 0)
+        return rc;
+
+    /* Populations in file order; ids are consecutive across them. */
+    for (size_t i = 0; i < rf->nsec; i++)
+        if (strncmp(rf->sec[i].name, "particles", 9) == 0) sc->npop++;
+    if (sc->npop == 0)
+        return gcp_error_set(err, GCP_ERR_MISSING, "%s: no [particles] section", rf->path);
+    if (!(sc->pops = calloc(sc->npop, sizeof *sc->pops)))
+        return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    size_t k = 0;
+    for (size_t i = 0; i < rf->nsec; i++) {
+        if (strncmp(rf->sec[i].name, "particles", 9) != 0) continue;
+        struct gcp_population *p = &sc->pops[k++];
+        if ((rc = load_population(sc, &rf->sec[i], p, err)) < 0) return rc;
+        p->first_id = sc->total;
+        sc->total += p->count;
+    }
+
+    s = gcp_run_file_section(rf, "integrator");
+    char method[32];
+    if ((rc = gcp_section_string(s, "method", 1, method, sizeof method, err)) < 0) return rc;
+    if (!(sc->pusher = gcp_pusher_lookup(method)))
+        return gcp_section_error(s, "method", err, GCP_ERR_UNKNOWN,
+                                 "unknown method '%s' (boris, boris-zu, vay, higuera-cary)",
+                                 method);
+    if ((rc = gcp_section_time(s, "dt", 1, &sc->dt_given, &sc->dt_period, err)) < 0) return rc;
+    if ((rc = positive(s, "dt", sc->dt_given, err))) return rc;
+    if (gcp_section_get(s, "tolerance", NULL))
+        return gcp_section_error(s, "tolerance", err, GCP_ERR_VALUE,
+                                 "method '%s' has a fixed step: tolerance applies only to "
+                                 "adaptive methods", method);
+    if ((rc = gcp_section_check_unused(s, "method dt tolerance", err))) return rc;
+
+    s = gcp_run_file_section(rf, "diagnostics");
+    if (s) {
+        for (size_t i = 0; i < s->n; i++) {
+            const char *v = s->kv[i].value;
+            while (isspace((unsigned char)*v)) v++;
+            if (*v)
+                return gcp_section_error(s, s->kv[i].key, err, GCP_ERR_VALUE,
+                                         "invariant and event tracking is not available in "
+                                         "this version; leave it empty");
+            s->kv[i].used = 1;
+        }
+    }
+
+    s = gcp_run_file_section(rf, "output");
+    if ((rc = gcp_section_string(s, "file", 1, sc->output, sizeof sc->output, err)) < 0) return rc;
+    int64_t traj_every, traj_samples;
+    if ((rc = parse_trajectory(s, &traj_every, &traj_samples, err))) return rc;
+    if ((rc = gcp_section_check_unused(s, "file trajectory", err))) return rc;
+
+    struct gcp_section *ss = gcp_run_file_section(rf, "scene");
+    struct gcp_section *is = gcp_run_file_section(rf, "integrator");
+    if ((rc = resolve_duration(sc, ss, err))) return rc;
+    for (size_t k = 0; k < sc->npop; k++) {
+        struct gcp_population *p = &sc->pops[k];
+        if ((rc = resolve_dt(sc, p, is, err))) return rc;
+        /* The run ends at `duration` exactly: dt shrinks by less than one step. */
+        const double steps = ceil(sc->duration / p->dt * (1.0 - 1e-12));
+        if (!(steps <= 1e13))
+            return gcp_section_error(is, "dt", err, GCP_ERR_VALUE,
+                                     "[%s]: %.3g steps per particle: dt is far too small for "
+                                     "the duration", p->name, steps);
+        p->nsteps = steps < 1 ? 1 : (int64_t)steps;
+        p->dt = sc->duration / (double)p->nsteps;
+        if (traj_every) p->trajectory_every = traj_every;
+        if (traj_samples) {
+            p->trajectory_every = p->nsteps / (traj_samples - 1);
+            if (p->trajectory_every < 1) p->trajectory_every = 1;
+        }
+        if (p->trajectory_every) {
+            const int64_t S = p->nsteps / p->trajectory_every + 1;
+            if (S > sc->trajectory_samples) sc->trajectory_samples = S;
+        }
+    }
+    if (sc->trajectory_samples) {
+        const double bytes = (double)sc->total * (double)sc->trajectory_samples * 7.0 * 8.0;
+        if (bytes > 16.0 * (1 << 30))
+            return gcp_section_error(gcp_run_file_section(rf, "output"), "trajectory", err,
+                                     GCP_ERR_VALUE,
+                                     "%.1f GiB of trajectory samples: sample less often",
+                                     bytes / (1 << 30));
+    }
+    return 0;
+}
+
+int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
+                    struct gcp_error *err)
+{
+    *out = NULL;
+    struct gcp_scene *sc = calloc(1, sizeof *sc);
+    if (!sc) return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    sc->path = strdup(path);
+    sc->text = strdup(text);
+    if (!sc->path || !sc->text) {
+        gcp_scene_free(sc);
+        return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    }
+    struct gcp_run_file rf;
+    int rc = gcp_run_file_parse(sc->path, text, &rf, err);
+    if (!rc) rc = build_scene(sc, &rf, err);
+    gcp_run_file_free(&rf);
+    if (rc) {
+        gcp_scene_free(sc);
+        return rc;
+    }
+    *out = sc;
+    return 0;
+}
+
+int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *err)
+{
+    char *text;
+    *out = NULL;
+    int rc = gcp_read_text(path, &text, err);
+    if (rc) return rc;
+    rc = gcp_scene_parse(path, text, out, err);
+    free(text);
+    return rc;
+}
+
+void gcp_scene_free(struct gcp_scene *s)
+{
+    if (!s) return;
+    gcp_field_free(s->field);
+    free(s->pops);
+    free(s->path);
+    free(s->text);
+    free(s);
+}
+
+/* Unit vectors e1, e2 completing b to a right-handed basis; e1 lies along
+ * the coordinate axis least aligned with b, projected. */
+static void perp_basis(const double b[3], double e1[3], double e2[3])
+{
+    int a = 0;
+    for (int i = 1; i < 3; i++)
+        if (fabs(b[i]) < fabs(b[a])) a = i;
+    double t[3] = {0, 0, 0};
+    t[a] = 1.0;
+    /* e1 = (t x b) normalised, e2 = b x e1 */
+    e1[0] = t[1] * b[2] - t[2] * b[1];
+    e1[1] = t[2] * b[0] - t[0] * b[2];
+    e1[2] = t[0] * b[1] - t[1] * b[0];
+    const double n = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    for (int i = 0; i < 3; i++) e1[i] /= n;
+    e2[0] = b[1] * e1[2] - b[2] * e1[1];
+    e2[1] = b[2] * e1[0] - b[0] * e1[2];
+    e2[2] = b[0] * e1[1] - b[1] * e1[0];
+}
+
+/* Draws: 0 population member energy, 1 L, 2 longitude, 3 pitch, 4 phase.
+ * Momentum from kinetic energy W: p c = sqrt(W (W + 2 m c^2)), u = p / m. */
+int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3],
+                            double u[3])
+{
+    if (id < 0 || id >= s->total) return GCP_ERR_VALUE;
+    size_t k = 0;
+    while (id >= s->pops[k].first_id + s->pops[k].count) k++;
+    const struct gcp_population *p = &s->pops[k];
+    *pop = (int)k;
+    const double W = spread(&p->energy, draw(s->seed, id, 0));
+    const double mc2 = p->species.mass * GCP_C_LIGHT * GCP_C_LIGHT;
+    const double umag = sqrt(W * (W + 2.0 * mc2)) / (p->species.mass * GCP_C_LIGHT);
+    if (p->placement == GCP_PLACE_L_SHELL) {
+        const double r = spread(&p->L, draw(s->seed, id, 1)) * GCP_EARTH_RADIUS;
+        const double phi = spread(&p->longitude, draw(s->seed, id, 2));
+        x[0] = r * cos(phi), x[1] = r * sin(phi), x[2] = 0.0;
+    } else {
+        memcpy(x, p->position, 3 * sizeof(double));
+    }
+    double d[3];
+    if (p->aim == GCP_AIM_DIRECTION) {
+        memcpy(d, p->direction, sizeof d);
+    } else {
+        struct gcp_field_sample smp = {.need = GCP_NEED_B};
+        int st = gcp_field_eval(s->field, 0.0, x, &smp);
+        const double Bm = sqrt(smp.B[0] * smp.B[0] + smp.B[1] * smp.B[1] + smp.B[2] * smp.B[2]);
+        if (st || !(Bm > 0) || !isfinite(Bm)) {
+            /* no local B to take a pitch angle from: the particle cannot start */
+            u[0] = u[1] = u[2] = NAN;
+            return 0;
+        }
+        const double b[3] = {smp.B[0] / Bm, smp.B[1] / Bm, smp.B[2] / Bm};
+        const double alpha = p->aim == GCP_AIM_ISOTROPIC
+                                 ? acos(1.0 - 2.0 * draw(s->seed, id, 3))
+                                 : spread(&p->pitch, draw(s->seed, id, 3));
+        const double phase = p->has_phase ? p->phase : 2.0 * GCP_PI * draw(s->seed, id, 4);
+        double e1[3], e2[3];
+        perp_basis(b, e1, e2);
+        const double ca = cos(alpha), sa = sin(alpha), cp = cos(phase), sp = sin(phase);
+        for (int i = 0; i < 3; i++) d[i] = ca * b[i] + sa * (cp * e1[i] + sp * e2[i]);
+    }
+    for (int i = 0; i < 3; i++) u[i] = umag * d[i];
+    return 0;
+}
