@@ -80,10 +80,10 @@ $(BUILD)/%.o: %.c $(wildcard include/gcpush/*.h src/*.h src/*/*.h fields/*.h)
 
 $(LIBA): $(LIB_OBJ)
 	@rm -f $@
-	ar rcs $@ $^
+	@echo "  AR    $@"; ar rcs $@ $^
 
 $(LIBSO): $(LIB_OBJ)
-	$(CC) -shared -o $@ $^ $(OPTFLAGS) $(LDLIBS)
+	@echo "  LD    $@"; $(CC) -shared -o $@ $^ $(OPTFLAGS) $(LDLIBS)
 
 $(BIN): $(BUILD)/src/gcpush.o $(LIBA)
 	@mkdir -p bin

@@ -30,6 +30,26 @@ enum gcp_pusher_kind {
     GCP_GUIDING_CENTRE = 1
 };
 
+struct gcp_block;
+struct gcp_sampler;
+struct gcp_pusher_type;
+
+/* How far and how finely to push (one set per block push). */
+struct gcp_push_opts {
+    double t0;               /* [s] start time */
+    double dt;               /* [s] step; the first trial step of adaptive methods */
+    int64_t nsteps;          /* fixed-step methods: steps to take; adaptive: end at t0 + nsteps dt */
+    double tolerance;        /* [1] adaptive methods: relative error per step (0: method default) */
+    double adiabaticity_max; /* [1] guiding centre: rho/L_B (or rho/R_c) above which a particle is
+                                NONADIABATIC; 0: no check */
+};
+
+/* Advances the live lanes of a block (see gcp_block_advance_fo for the
+ * contract: statuses set, stopped lanes retired, returns live lanes). */
+typedef size_t (*gcp_advance_fn)(struct gcp_block *b, const struct gcp_field *f,
+                                 const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                                 const struct gcp_sampler *s);
+
 /* Momentum update of n particles of one species (kernels.h batch form). */
 typedef void (*gcp_kick_batch_fn)(size_t n, double *ux, double *uy, double *uz,
                                   const double *Ex, const double *Ey, const double *Ez,
@@ -41,7 +61,8 @@ struct gcp_pusher_type {
     const char *doc;           /* one line for --help, with the reference */
     int order;                 /* global order of accuracy in dt */
     enum gcp_pusher_kind kind;
-    gcp_kick_batch_fn kick;    /* full orbit: the momentum update */
+    gcp_kick_batch_fn kick;    /* full orbit: the momentum update (NULL for guiding centre) */
+    gcp_advance_fn advance;    /* the block push: every pusher has one */
 };
 
 extern const struct gcp_pusher_type gcp_pusher_boris;
@@ -64,7 +85,9 @@ struct gcp_block {
     double q;            /* [C] charge */
     double m;            /* [kg] mass */
     double *x, *y, *z;   /* [m] */
-    double *ux, *uy, *uz;/* [m/s] u = gamma v */
+    double *ux, *uy, *uz;/* [m/s] u = gamma v (full orbit) */
+    double *ppar;        /* [kg m/s] parallel momentum (guiding centre; x, y, z hold X) */
+    double *mu;          /* [J/T] magnetic moment (guiding centre) */
     double *t;           /* [s] time of each lane (set when it stops or at the end) */
     int32_t *status;     /* enum gcp_status */
     int64_t *steps;      /* steps taken */
@@ -99,6 +122,10 @@ size_t gcp_block_start(struct gcp_block *b, const struct gcp_field *f, double t0
 size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
                             const struct gcp_pusher_type *p, double t0, double dt,
                             int64_t nsteps, const struct gcp_sampler *sampler);
+/* The same as a gcp_advance_fn (the .advance of every full-orbit pusher). */
+size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,
+                                 const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                                 const struct gcp_sampler *s);
 
 /* Single-particle convenience: pushes one full-orbit particle nsteps steps
  * of dt from *t, updating t, x [m], u [m/s] in place; cb (may be NULL) is

@@ -9,5 +9,6 @@ const struct gcp_pusher_type gcp_pusher_boris = {
     .doc = "Relativistic Boris (Boris 1970; Birdsall & Langdon 1991): exact |u| in pure B, volume preserving, gyrophase lags as 2 atan(omega dt/2)",
     .order = 2,
     .kind = GCP_FULL_ORBIT,
+    .advance = gcp_block_advance_fo_opts,
     .kick = gcp_push_boris_batch,
 };

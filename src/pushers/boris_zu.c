@@ -9,5 +9,6 @@ const struct gcp_pusher_type gcp_pusher_boris_zu = {
     .doc = "Boris with the exact gyro-angle (Zenitani & Umeda 2018): correct gyrophase at any omega_c dt",
     .order = 2,
     .kind = GCP_FULL_ORBIT,
+    .advance = gcp_block_advance_fo_opts,
     .kick = gcp_push_boris_zu_batch,
 };

@@ -9,5 +9,6 @@ const struct gcp_pusher_type gcp_pusher_higuera_cary = {
     .doc = "Higuera & Cary (2017): volume preserving and correct E x B drift at any gamma",
     .order = 2,
     .kind = GCP_FULL_ORBIT,
+    .advance = gcp_block_advance_fo_opts,
     .kick = gcp_push_higuera_cary_batch,
 };

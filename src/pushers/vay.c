@@ -9,5 +9,6 @@ const struct gcp_pusher_type gcp_pusher_vay = {
     .doc = "Vay (2008): correct E x B drift and force-free motion at any gamma",
     .order = 2,
     .kind = GCP_FULL_ORBIT,
+    .advance = gcp_block_advance_fo_opts,
     .kick = gcp_push_vay_batch,
 };

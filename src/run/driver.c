@@ -112,8 +112,9 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res, gcp_next_
         const double c0 = cpu_now();
         gcp_block_start(&b, s->field, t0);
         if (S) record(&b, t0, &tc);
-        gcp_block_advance_fo(&b, s->field, s->pusher, t0, s->pops[pop].dt, s->pops[pop].nsteps,
-                             S ? &sampler : NULL);
+        const struct gcp_push_opts opts = {
+            .t0 = t0, .dt = s->pops[pop].dt, .nsteps = s->pops[pop].nsteps};
+        s->pusher->advance(&b, s->field, s->pusher, &opts, S ? &sampler : NULL);
         const double spent = cpu_now() - c0;
         res->rank_cpu += spent;
         int64_t total_steps = 0;

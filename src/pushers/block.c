@@ -1,0 +1,106 @@
+/* Block lane management shared by every pusher: allocation, lane swaps,
+ * the per-step status classification and the retirement of stopped lanes. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/error.h"
+#include "gcpush/particles.h"
+#include "gcpush/pusher.h"
+#include "block_priv.h"
+
+int gcp_block_alloc(struct gcp_block *b, size_t n)
+{
+    memset(b, 0, sizeof *b);
+    size_t m = n ? n : 1;
+    double **d[] = {&b->x, &b->y, &b->z, &b->ux, &b->uy, &b->uz, &b->ppar, &b->mu, &b->t,
+                    &b->Bx, &b->By, &b->Bz, &b->Ex, &b->Ey, &b->Ez};
+    int fail = 0;
+    for (size_t k = 0; k < sizeof d / sizeof d[0]; k++) fail |= !(*d[k] = calloc(m, sizeof(double)));
+    fail |= !(b->status = calloc(m, sizeof(int32_t)));
+    fail |= !(b->fstatus = calloc(m, sizeof(int32_t)));
+    fail |= !(b->steps = calloc(m, sizeof(int64_t)));
+    fail |= !(b->index = calloc(m, sizeof(size_t)));
+    if (fail) {
+        gcp_block_free(b);
+        return GCP_ERR_NOMEM;
+    }
+    for (size_t i = 0; i < n; i++) b->index[i] = i;
+    b->n = b->n_active = n;
+    return 0;
+}
+
+void gcp_block_free(struct gcp_block *b)
+{
+    double *d[] = {b->x, b->y, b->z, b->ux, b->uy, b->uz, b->ppar, b->mu, b->t,
+                   b->Bx, b->By, b->Bz, b->Ex, b->Ey, b->Ez};
+    for (size_t k = 0; k < sizeof d / sizeof d[0]; k++) free(d[k]);
+    free(b->status);
+    free(b->fstatus);
+    free(b->steps);
+    free(b->index);
+    memset(b, 0, sizeof *b);
+}
+
+#define SWAP_(T, a, i, j) do { T tmp_ = (a)[i]; (a)[i] = (a)[j]; (a)[j] = tmp_; } while (0)
+
+void gcp_block_swap_lanes(struct gcp_block *b, size_t i, size_t j)
+{
+    SWAP_(double, b->x, i, j);
+    SWAP_(double, b->y, i, j);
+    SWAP_(double, b->z, i, j);
+    SWAP_(double, b->ux, i, j);
+    SWAP_(double, b->uy, i, j);
+    SWAP_(double, b->uz, i, j);
+    SWAP_(double, b->ppar, i, j);
+    SWAP_(double, b->mu, i, j);
+    SWAP_(double, b->t, i, j);
+    SWAP_(int32_t, b->status, i, j);
+    SWAP_(int64_t, b->steps, i, j);
+    SWAP_(size_t, b->index, i, j);
+}
+
+/* Status of each live lane after a step, without branches:
+ * NONFINITE beats the field's own verdict (LEFT_GRID, LEFT_DOMAIN), which
+ * beats PRECIPITATED (|x| < r_inner) and LEFT_DOMAIN (|x| > r_outer or
+ * |z| > z_max).  Returns non-zero when any lane stopped. */
+int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field *f, int gc)
+{
+    const double rin2 = f->r_inner * f->r_inner;
+    const double rout2 = f->r_outer * f->r_outer; /* inf stays inf */
+    const double zmax = f->z_max;
+    int32_t any = 0;
+    for (size_t i = 0; i < n; i++) {
+        const double r2 = b->x[i] * b->x[i] + b->y[i] * b->y[i] + b->z[i] * b->z[i];
+        /* full orbit: u; guiding centre: p_par and mu (chosen per call, not per lane) */
+        const double u2 = gc ? b->ppar[i] * b->ppar[i] + b->mu[i]
+                             : b->ux[i] * b->ux[i] + b->uy[i] * b->uy[i] + b->uz[i] * b->uz[i];
+        const int32_t nonfinite = !isfinite(r2 + u2);
+        const int32_t below = r2 < rin2;
+        const int32_t outside = (r2 > rout2) | (fabs(b->z[i]) > zmax);
+        const int32_t geo = below ? GCP_PRECIPITATED : outside * GCP_LEFT_DOMAIN;
+        const int32_t fs = b->fstatus[i] ? b->fstatus[i] : geo;
+        const int32_t s = nonfinite ? GCP_NONFINITE : fs;
+        b->status[i] = s;
+        any |= s;
+    }
+    return any;
+}
+
+/* Retires stopped lanes (status != 0) to the end; returns the live count. */
+size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t steps_done)
+{
+    size_t i = 0;
+    while (i < n) {
+        if (b->status[i] != GCP_ALIVE) {
+            b->t[i] = t_stop;
+            b->steps[i] += steps_done;
+            gcp_block_swap_lanes(b, i, n - 1);
+            n--;
+        } else {
+            i++;
+        }
+    }
+    return n;
+}
+

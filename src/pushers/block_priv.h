@@ -1,0 +1,24 @@
+/* Private to the pushers: block lane management (block.c). */
+#ifndef GCPUSH_BLOCK_PRIV_H
+#define GCPUSH_BLOCK_PRIV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gcpush/pusher.h"
+
+/* Swaps every per-lane array entry of lanes i and j. */
+void gcp_block_swap_lanes(struct gcp_block *b, size_t i, size_t j);
+
+/* Sets the status of each of the first n lanes, without branches:
+ * NONFINITE (position, or u for full orbit / p_par and mu for guiding
+ * centre when gc != 0) beats the field's verdict in b->fstatus (LEFT_GRID,
+ * LEFT_DOMAIN), which beats PRECIPITATED (|x| < r_inner) and LEFT_DOMAIN
+ * (|x| > r_outer or |z| > z_max).  Returns non-zero when any lane stopped. */
+int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field *f, int gc);
+
+/* Moves lanes with status != ALIVE behind the live ones, stamping their
+ * time t_stop and adding steps_done to their steps; returns the live count. */
+size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t steps_done);
+
+#endif
