@@ -1,16 +1,20 @@
 /* gcpush -- command line.
  *
- *   gcpush FILE.run            run the scene, write its HDF5 output
- *   gcpush --check FILE.run    validate the run file, run nothing
+ *   gcpush [--quiet] FILE.run     run the scene, write its HDF5 output
+ *   gcpush --check FILE.run       validate the run file, run nothing
+ *   gcpush --restart OUT.h5       continue a killed or interrupted run from its checkpoints
  *   gcpush --help | --version
  *
- * Same binary with and without mpirun.  Exit status: 0 success, 1 a run
- * that failed (I/O), 2 bad usage or a bad run file.  Messages come from rank
- * 0 only, one line each, naming file, line and key. */
+ * Same binary with and without mpirun.  Exit status: 0 success, 1 a run that
+ * failed (I/O), 2 bad usage or a bad run file, 3 interrupted (SIGINT or
+ * SIGTERM: a checkpoint was written).  Messages come from rank 0 only, one
+ * line each, naming file, line and key. */
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <mpi.h>
 
@@ -25,11 +29,21 @@
 #define GCP_GIT_HASH "unknown"
 #endif
 
+enum { EXIT_RUN_FAILED = 1, EXIT_BAD_INPUT = 2, EXIT_INTERRUPTED = 3 };
+
+static volatile sig_atomic_t stop_requested = 0;
+static void on_signal(int sig)
+{
+    (void)sig;
+    stop_requested = 1;
+}
+
 static void usage(FILE *to)
 {
     fprintf(to,
             "usage: gcpush [--quiet] FILE.run     run a scene, write its HDF5 output\n"
             "       gcpush --check FILE.run       validate a run file without running it\n"
+            "       gcpush --restart OUT.h5       continue an interrupted run from its checkpoints\n"
             "       gcpush --help | --version\n"
             "under MPI: mpirun -np N gcpush FILE.run (one output file, same result for any N)\n\n");
     fprintf(to, "fields:");
@@ -48,16 +62,110 @@ static double wall_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static void summary(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
-                    int me, double wall)
+/* ---- the schedule: shared counter, progress, checkpoints ---------------- */
+
+struct run_ctx {
+    const struct gcp_scene *sc;
+    struct gcp_par_counter counter;
+    int64_t *todo;         /* chunk indices still to push (restart); NULL: all */
+    int me, quiet, tty;
+    double t0, last_print, last_ckpt;
+    int64_t total;         /* particles this run pushes */
+    int ckpt_failed;
+    struct gcp_error ckpt_err;
+};
+
+static int64_t next_chunk(void *vctx)
 {
-    int64_t counts[GCP_STATUS_COUNT] = {0}, steps = 0;
-    for (int64_t k = 0; k < r->n; k++) {
-        if (r->status[k] >= 0 && r->status[k] < GCP_STATUS_COUNT) counts[r->status[k]]++;
-        steps += r->steps[k];
+    struct run_ctx *c = vctx;
+    if (stop_requested) return -1;
+    int64_t k = gcp_par_counter_take(&c->counter);
+    return k < 0 ? -1 : c->todo ? c->todo[k] : k;
+}
+
+static void progress(struct run_ctx *c, int final)
+{
+    int64_t done, steps;
+    gcp_par_counter_totals(&c->counter, &done, &steps);
+    const double el = wall_now() - c->t0;
+    const double rate = el > 0 ? (double)steps / el : 0.0;
+    const double eta = done > 0 ? el * (double)(c->total - done) / (double)done : 0.0;
+    fprintf(stderr, "%s%lld / %lld particles, %.3g particle-steps/s, %.0f s elapsed, ETA %.0f s%s",
+            c->tty ? "\r" : "", (long long)done, (long long)c->total, rate, el, eta,
+            c->tty && !final ? "   " : "\n");
+    fflush(stderr);
+}
+
+static void chunk_done(void *vctx, struct gcp_results *res, int64_t particles, int64_t steps)
+{
+    struct run_ctx *c = vctx;
+    gcp_par_counter_report(&c->counter, particles, steps);
+    const double now = wall_now();
+    /* progress: on rank 0, for runs past a few seconds; a line per 10 s when
+     * stderr is a file, a refreshed line per second on a terminal */
+    if (c->me == 0 && !c->quiet && now - c->t0 > 3.0 &&
+        now - c->last_print > (c->tty ? 1.0 : 10.0)) {
+        progress(c, 0);
+        c->last_print = now;
     }
+    if (c->sc->checkpoint_every > 0 && now - c->last_ckpt > c->sc->checkpoint_every) {
+        if (gcp_checkpoint_write(c->sc, res, c->me, &c->ckpt_err)) c->ckpt_failed = 1;
+        c->last_ckpt = now;
+    }
+}
+
+/* On restart: load the checkpoints (file i on rank i % nranks), keep one copy
+ * of each chunk (the lowest rank holding it), and list the chunks left. */
+static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, char **files,
+                        size_t nfiles, MPI_Comm comm, int me, int nranks, int64_t **todo,
+                        int64_t *ntodo, struct gcp_error *err)
+{
+    int rc = 0;
+    for (size_t i = (size_t)me; i < nfiles && !rc; i += (size_t)nranks)
+        rc = gcp_checkpoint_load(files[i], sc, res, err);
+    int bad = rc != 0;
+    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+    if (bad) return rc ? rc : GCP_ERR_IO;
+    const int64_t nchunks = gcp_scene_chunk_count(sc);
+    /* owner[c] = lowest rank holding chunk c, or nranks when nobody does */
+    int *owner = malloc((size_t)nchunks * sizeof *owner);
+    unsigned char *keep = malloc((size_t)(res->n ? res->n : 1));
+    if (!owner || !keep) {
+        free(owner);
+        free(keep);
+        return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    }
+    for (int64_t k = 0; k < nchunks; k++) owner[k] = nranks;
+    for (int64_t i = 0; i < res->n; i++) owner[gcp_scene_chunk_of(sc, res->id[i])] = me;
+    MPI_Allreduce(MPI_IN_PLACE, owner, (int)nchunks, MPI_INT, MPI_MIN, comm);
+    for (int64_t i = 0; i < res->n; i++) keep[i] = owner[gcp_scene_chunk_of(sc, res->id[i])] == me;
+    gcp_results_drop(res, keep);
+    /* a chunk appears once per rank file, but a rank may hold it twice when
+     * two old files landed on it: drop repeats of an id */
+    gcp_results_sort(res);
+    for (int64_t i = 0; i < res->n; i++) keep[i] = i == 0 || res->id[i] != res->id[i - 1];
+    gcp_results_drop(res, keep);
+    free(keep);
+    *ntodo = 0;
+    *todo = malloc((size_t)(nchunks ? nchunks : 1) * sizeof **todo);
+    if (!*todo) {
+        free(owner);
+        return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    }
+    for (int64_t k = 0; k < nchunks; k++)
+        if (owner[k] == nranks) (*todo)[(*ntodo)++] = k;
+    free(owner);
+    return 0;
+}
+
+/* steps: particle-steps pushed by this run (not those loaded on restart). */
+static void summary(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
+                    int me, int64_t steps, double wall)
+{
+    int64_t counts[GCP_STATUS_COUNT] = {0};
+    for (int64_t k = 0; k < r->n; k++)
+        if (r->status[k] >= 0 && r->status[k] < GCP_STATUS_COUNT) counts[r->status[k]]++;
     MPI_Reduce(me ? counts : MPI_IN_PLACE, counts, GCP_STATUS_COUNT, MPI_INT64_T, MPI_SUM, 0, comm);
-    MPI_Reduce(me ? &steps : MPI_IN_PLACE, &steps, 1, MPI_INT64_T, MPI_SUM, 0, comm);
     if (me) return;
     printf("%s: %lld particles, %.6g s (%s in %s), %.3g particle-steps/s\n", sc->name,
            (long long)sc->total, sc->duration, sc->pusher->name, sc->field_model,
@@ -65,6 +173,42 @@ static void summary(const struct gcp_scene *sc, const struct gcp_results *r, MPI
     for (int s = 0; s < GCP_STATUS_COUNT; s++)
         if (counts[s]) printf("  %-13s %lld\n", gcp_status_name(s), (long long)counts[s]);
     printf("output: %s\n", sc->output);
+}
+
+/* Loads the scene: from the run file, or on restart from the text saved in
+ * the checkpoints.  All ranks agree on the outcome. */
+static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char ***files,
+                      size_t *nfiles, MPI_Comm comm, struct gcp_error *err)
+{
+    int rc;
+    *files = NULL;
+    *nfiles = 0;
+    if (!restart) {
+        rc = gcp_scene_load(arg, sc, err);
+    } else if ((rc = gcp_checkpoint_list(arg, files, nfiles)) == 0 && *nfiles == 0) {
+        rc = gcp_error_set(err, GCP_ERR_IO, "%s: no checkpoint to restart from (%s.ckpt.*)", arg,
+                           arg);
+    } else if (rc == 0) {
+        char *text, *path;
+        if (!(rc = gcp_checkpoint_read_text((*files)[0], &text, &path, err))) {
+            rc = gcp_scene_parse(path, text, sc, err);
+            if (!rc && strcmp((*sc)->output, arg) != 0)
+                rc = gcp_error_set(err, GCP_ERR_VALUE,
+                                   "%s: the checkpoint's run file writes '%s', not '%s'",
+                                   (*files)[0], (*sc)->output, arg);
+            free(text);
+            free(path);
+        }
+    }
+    int bad = rc != 0;
+    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+    return bad ? (rc ? rc : GCP_ERR_IO) : 0;
+}
+
+static void free_list(char **files, size_t n)
+{
+    for (size_t i = 0; i < n; i++) free(files[i]);
+    free(files);
 }
 
 int main(int argc, char **argv)
@@ -75,8 +219,8 @@ int main(int argc, char **argv)
     MPI_Comm_rank(comm, &me);
     MPI_Comm_size(comm, &nranks);
 
-    int check = 0, quiet = 0, rc = 0;
-    const char *path = NULL;
+    int check = 0, quiet = 0, restart = 0;
+    const char *arg = NULL;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             if (me == 0) usage(stdout);
@@ -90,38 +234,40 @@ int main(int argc, char **argv)
             check = 1;
         } else if (strcmp(argv[i], "--quiet") == 0) {
             quiet = 1;
-        } else if (argv[i][0] == '-' || path) {
+        } else if (strcmp(argv[i], "--restart") == 0) {
+            restart = 1;
+        } else if (argv[i][0] == '-' || arg) {
             if (me == 0) {
                 fprintf(stderr, "gcpush: unexpected argument '%s'\n", argv[i]);
                 usage(stderr);
             }
             MPI_Finalize();
-            return 2;
+            return EXIT_BAD_INPUT;
         } else {
-            path = argv[i];
+            arg = argv[i];
         }
     }
-    if (!path) {
+    if (!arg || (check && restart)) {
         if (me == 0) usage(stderr);
         MPI_Finalize();
-        return 2;
+        return EXIT_BAD_INPUT;
     }
 
     struct gcp_error err = {0};
     struct gcp_scene *sc = NULL;
-    rc = gcp_scene_load(path, &sc, &err);
-    /* Every rank read the same file; agree on the outcome so no rank hangs. */
-    int bad = rc != 0;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (bad) {
-        if (me == 0) fprintf(stderr, "gcpush: %s\n", rc ? err.msg : "a rank failed to read the run file");
+    char **files;
+    size_t nfiles;
+    int rc = load_scene(arg, restart, &sc, &files, &nfiles, comm, &err);
+    if (rc) {
+        if (me == 0) fprintf(stderr, "gcpush: %s\n", err.code ? err.msg : "a rank failed to read the run file");
         gcp_scene_free(sc);
+        free_list(files, nfiles);
         MPI_Finalize();
-        return 2;
+        return EXIT_BAD_INPUT;
     }
     if (check) {
         if (me == 0 && !quiet) {
-            printf("%s: ok: %lld particles, %s in %s for %.6g s\n", path, (long long)sc->total,
+            printf("%s: ok: %lld particles, %s in %s for %.6g s\n", arg, (long long)sc->total,
                    sc->pusher->name, sc->field_model, sc->duration);
             for (size_t k = 0; k < sc->npop; k++)
                 printf("  [%s] %lld %s, %lld steps of %.6g s\n", sc->pops[k].name,
@@ -135,35 +281,94 @@ int main(int argc, char **argv)
     if ((rc = gcp_output_probe(sc, comm, &err))) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", err.msg);
         gcp_scene_free(sc);
+        free_list(files, nfiles);
         MPI_Finalize();
-        return 2;
+        return EXIT_BAD_INPUT;
     }
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
 
-    const double w0 = wall_now();
     struct gcp_results res;
     gcp_results_init(&res, sc->trajectory_samples);
-    struct gcp_par_counter counter;
-    if (gcp_par_counter_create(&counter, gcp_scene_chunk_count(sc), comm)) {
+    struct run_ctx ctx = {.sc = sc, .me = me, .quiet = quiet, .tty = isatty(2)};
+    int64_t nitems = gcp_scene_chunk_count(sc);
+    ctx.total = sc->total;
+    if (restart) {
+        rc = restart_load(sc, &res, files, nfiles, comm, me, nranks, &ctx.todo, &nitems, &err);
+        if (rc) {
+            if (me == 0) fprintf(stderr, "gcpush: %s\n", err.code ? err.msg : "a rank failed to load its checkpoint");
+            gcp_results_free(&res);
+            gcp_scene_free(sc);
+            free_list(files, nfiles);
+            MPI_Finalize();
+            return EXIT_RUN_FAILED;
+        }
+        int64_t have = res.n;
+        MPI_Allreduce(MPI_IN_PLACE, &have, 1, MPI_INT64_T, MPI_SUM, comm);
+        ctx.total = sc->total - have;
+        if (me == 0 && !quiet)
+            printf("restart: %lld particles from %zu checkpoint file(s), %lld to push\n",
+                   (long long)have, nfiles, (long long)ctx.total);
+    }
+    if (gcp_par_counter_create(&ctx.counter, nitems, comm)) {
         if (me == 0) fprintf(stderr, "gcpush: MPI window creation failed\n");
-        MPI_Abort(comm, 1);
+        MPI_Abort(comm, EXIT_RUN_FAILED);
     }
-    rc = gcp_scene_push(sc, &res, gcp_par_counter_next, &counter, &err);
-    gcp_par_counter_free(&counter);
-    bad = rc != 0;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (!bad && gcp_results_sort(&res)) bad = 1, rc = gcp_error_set(&err, GCP_ERR_NOMEM, "out of memory");
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (!bad) {
-        rc = gcp_output_write(sc, &res, comm, &err);
-        bad = rc != 0;
-    }
-    if (bad) {
+    ctx.t0 = ctx.last_print = ctx.last_ckpt = wall_now();
+    const struct gcp_schedule sched = {next_chunk, chunk_done, &ctx};
+    rc = gcp_scene_push(sc, &res, &sched, &err);
+    if (me == 0 && !quiet && ctx.last_print > ctx.t0) progress(&ctx, 1);
+    int64_t pushed, steps_run;
+    MPI_Barrier(comm);
+    gcp_par_counter_totals(&ctx.counter, &pushed, &steps_run);
+    gcp_par_counter_free(&ctx.counter);
+    free(ctx.todo);
+
+    int flags[3] = {rc != 0, (int)stop_requested, ctx.ckpt_failed};
+    MPI_Allreduce(MPI_IN_PLACE, flags, 3, MPI_INT, MPI_MAX, comm);
+    int status = 0;
+    if (flags[0]) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", rc ? err.msg : "a rank failed");
-    } else if (!quiet) {
-        summary(sc, &res, comm, me, wall_now() - w0);
+        status = EXIT_RUN_FAILED;
+    } else if (flags[1]) {
+        /* interrupted: save what is done, leave no output */
+        struct gcp_error cerr = {0};
+        int bad = gcp_checkpoint_write(sc, &res, me, &cerr) != 0;
+        MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+        if (me == 0)
+            fprintf(stderr, bad ? "gcpush: interrupted; writing the checkpoint failed\n"
+                                : "gcpush: interrupted; checkpoint written, continue with: "
+                                  "gcpush --restart %s\n",
+                    sc->output);
+        status = EXIT_INTERRUPTED;
+    } else {
+        if (flags[2] && me == 0)
+            fprintf(stderr, "gcpush: warning: a periodic checkpoint failed (%s)\n",
+                    ctx.ckpt_err.code ? ctx.ckpt_err.msg : "on another rank");
+        rc = gcp_results_sort(&res);
+        int bad = rc != 0;
+        MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+        if (!bad) rc = gcp_output_write(sc, &res, comm, &err);
+        if (bad || rc) {
+            if (me == 0) fprintf(stderr, "gcpush: %s\n", rc ? err.msg : "out of memory on a rank");
+            status = EXIT_RUN_FAILED;
+        } else {
+            /* the output is complete: its checkpoints are obsolete */
+            MPI_Barrier(comm);
+            if (me == 0) {
+                char **old;
+                size_t nold;
+                if (gcp_checkpoint_list(sc->output, &old, &nold) == 0) {
+                    for (size_t i = 0; i < nold; i++) remove(old[i]);
+                    free_list(old, nold);
+                }
+            }
+            if (!quiet) summary(sc, &res, comm, me, steps_run, wall_now() - ctx.t0);
+        }
     }
     gcp_results_free(&res);
     gcp_scene_free(sc);
+    free_list(files, nfiles);
     MPI_Finalize();
-    return bad ? 1 : 0;
+    return status;
 }

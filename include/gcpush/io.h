@@ -41,6 +41,8 @@ void gcp_results_init(struct gcp_results *r, int64_t samples);
 int gcp_results_reserve(struct gcp_results *r, int64_t more);
 /* Sorts rows by particle id (the writer needs them in file order). */
 int gcp_results_sort(struct gcp_results *r);
+/* Appends src's rows to dst (same sample count); 0, GCP_ERR_NOMEM or GCP_ERR_STATE. */
+int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src);
 void gcp_results_free(struct gcp_results *r);
 
 /* Writes the scene's output file from every rank's results (collective on
@@ -52,6 +54,19 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
 /* Checks early (collectively) that the output path can be created, so a
  * long run does not end in an unwritable directory.  0 or GCP_ERR_IO. */
 int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err);
+
+/* Checkpoints (one file per writing rank: OUT.ckpt.RANK; see checkpoint.c). */
+int gcp_checkpoint_write(const struct gcp_scene *sc, struct gcp_results *r, int rank,
+                         struct gcp_error *err);
+/* The checkpoint files of output path `output` (malloc'ed array of strdup'ed names). */
+int gcp_checkpoint_list(const char *output, char ***files, size_t *n);
+/* The run file text and path a checkpoint was made from (malloc'ed). */
+int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct gcp_error *err);
+/* Appends a checkpoint's rows to r (after checking it belongs to sc). */
+int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp_results *r,
+                        struct gcp_error *err);
+/* Keeps only rows i with keep[i] != 0. */
+void gcp_results_drop(struct gcp_results *r, const unsigned char *keep);
 
 #ifdef __cplusplus
 }

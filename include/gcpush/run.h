@@ -71,6 +71,7 @@ struct gcp_scene {
     double dt_given;
     enum gcp_period dt_period;
     char output[1024];      /* output file path */
+    double checkpoint_every;/* [s] wall time between checkpoints; 0: only on SIGINT/SIGTERM */
     int64_t trajectory_samples; /* samples per particle, incl. the initial one (0: none) */
 };
 
@@ -101,11 +102,16 @@ int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp
 
 struct gcp_results;
 
-/* Work distribution for gcp_scene_push(): returns the next chunk index to
- * push (chunks are gcp_scene_chunk_count() slices of the ensemble), or -1
- * when there is none left.  A serial run counts up; MPI ranks share an
- * atomic counter. */
-typedef int64_t (*gcp_next_chunk_fn)(void *ctx);
+/* Work distribution for gcp_scene_push(): next() returns the next chunk
+ * index to push (chunks are gcp_scene_chunk_count() slices of the ensemble),
+ * or -1 when there is none left (a serial run counts up; MPI ranks share an
+ * atomic counter); done() (may be NULL) is told after each chunk, for
+ * progress and checkpoints. */
+struct gcp_schedule {
+    int64_t (*next)(void *ctx);
+    void (*done)(void *ctx, struct gcp_results *res, int64_t particles, int64_t steps);
+    void *ctx;
+};
 
 /* Particles per chunk: one block of the stepper, one population. */
 #define GCP_CHUNK 64
@@ -113,11 +119,13 @@ typedef int64_t (*gcp_next_chunk_fn)(void *ctx);
 int64_t gcp_scene_chunk_count(const struct gcp_scene *s);
 /* Ids [first, first + count) of chunk c. */
 void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64_t *count);
+/* The chunk holding particle id. */
+int64_t gcp_scene_chunk_of(const struct gcp_scene *s, int64_t id);
 
-/* Pushes the chunks handed out by next() and appends their rows to res.
- * Per-particle failures are statuses; returns 0, or GCP_ERR_NOMEM. */
-int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res, gcp_next_chunk_fn next,
-                   void *ctx, struct gcp_error *err);
+/* Pushes the chunks handed out by sched->next() and appends their rows to
+ * res.  Per-particle failures are statuses; returns 0, or GCP_ERR_NOMEM. */
+int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
+                   const struct gcp_schedule *sched, struct gcp_error *err);
 
 #ifdef __cplusplus
 }

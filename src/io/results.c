@@ -1,9 +1,37 @@
-/* Per-rank result rows: grown by chunk, sorted by id before writing. */
-#include <math.h>
+/* Per-rank result rows: grown by chunk, sorted by id before writing,
+ * saved to and loaded from checkpoints.  Every operation walks one table of
+ * columns, so a new column is one line. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "gcpush/io.h"
+#include "io_priv.h"
+
+size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
+{
+    const int64_t S = r->S;
+    size_t n = 0;
+#define COL_(field, per_row)                                                       \
+    c[n++] = (struct gcp_results_column){#field, (void **)&r->field, sizeof *r->field, (per_row)}
+    COL_(id, 1);
+    COL_(pop, 1);
+    COL_(x0, 3);
+    COL_(u0, 3);
+    COL_(t, 1);
+    COL_(x, 3);
+    COL_(u, 3);
+    COL_(status, 1);
+    COL_(steps, 1);
+    COL_(cpu, 1);
+    if (S) {
+        COL_(traj_t, S);
+        COL_(traj_x, 3 * S);
+        COL_(traj_u, 3 * S);
+        COL_(traj_count, 1);
+    }
+#undef COL_
+    return n;
+}
 
 void gcp_results_init(struct gcp_results *r, int64_t samples)
 {
@@ -11,33 +39,17 @@ void gcp_results_init(struct gcp_results *r, int64_t samples)
     r->S = samples;
 }
 
-#define GROW_(ptr, count)                                                        \
-    do {                                                                         \
-        void *p_ = realloc((ptr), (size_t)(count) * sizeof *(ptr));              \
-        if (!p_) return GCP_ERR_NOMEM;                                           \
-        (ptr) = p_;                                                              \
-    } while (0)
-
 int gcp_results_reserve(struct gcp_results *r, int64_t more)
 {
     if (r->n + more <= r->cap) return 0;
     int64_t cap = r->cap ? r->cap : 256;
     while (cap < r->n + more) cap *= 2;
-    GROW_(r->id, cap);
-    GROW_(r->pop, cap);
-    GROW_(r->x0, 3 * cap);
-    GROW_(r->u0, 3 * cap);
-    GROW_(r->t, cap);
-    GROW_(r->x, 3 * cap);
-    GROW_(r->u, 3 * cap);
-    GROW_(r->status, cap);
-    GROW_(r->steps, cap);
-    GROW_(r->cpu, cap);
-    if (r->S) {
-        GROW_(r->traj_t, cap * r->S);
-        GROW_(r->traj_x, 3 * cap * r->S);
-        GROW_(r->traj_u, 3 * cap * r->S);
-        GROW_(r->traj_count, cap);
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(r, c);
+    for (size_t k = 0; k < nc; k++) {
+        void *p = realloc(*c[k].data, (size_t)cap * (size_t)c[k].per_row * c[k].elem);
+        if (!p) return GCP_ERR_NOMEM;
+        *c[k].data = p;
     }
     r->cap = cap;
     return 0;
@@ -50,20 +62,6 @@ static int by_id(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Applies the permutation perm (row k of the result = old row perm[k]) to an
- * array of rows of `w` elements of `size` bytes. */
-static int permute(void *base, const int64_t *perm, int64_t n, size_t rowbytes)
-{
-    if (!base || n == 0) return 0;
-    char *tmp = malloc((size_t)n * rowbytes);
-    if (!tmp) return GCP_ERR_NOMEM;
-    for (int64_t k = 0; k < n; k++)
-        memcpy(tmp + (size_t)k * rowbytes, (char *)base + (size_t)perm[k] * rowbytes, rowbytes);
-    memcpy(base, tmp, (size_t)n * rowbytes);
-    free(tmp);
-    return 0;
-}
-
 int gcp_results_sort(struct gcp_results *r)
 {
     if (r->n < 2) return 0;
@@ -72,40 +70,45 @@ int gcp_results_sort(struct gcp_results *r)
     for (int64_t k = 0; k < r->n; k++) perm[k] = k;
     sort_keys_ = r->id;
     qsort(perm, (size_t)r->n, sizeof *perm, by_id);
-    const size_t S = (size_t)r->S;
-    int rc = permute(r->id, perm, r->n, sizeof(int64_t)) | permute(r->pop, perm, r->n, sizeof(int32_t)) |
-             permute(r->x0, perm, r->n, 3 * sizeof(double)) |
-             permute(r->u0, perm, r->n, 3 * sizeof(double)) |
-             permute(r->t, perm, r->n, sizeof(double)) |
-             permute(r->x, perm, r->n, 3 * sizeof(double)) |
-             permute(r->u, perm, r->n, 3 * sizeof(double)) |
-             permute(r->status, perm, r->n, sizeof(int32_t)) |
-             permute(r->steps, perm, r->n, sizeof(int64_t)) |
-             permute(r->cpu, perm, r->n, sizeof(double));
-    if (S)
-        rc |= permute(r->traj_t, perm, r->n, S * sizeof(double)) |
-              permute(r->traj_x, perm, r->n, 3 * S * sizeof(double)) |
-              permute(r->traj_u, perm, r->n, 3 * S * sizeof(double)) |
-              permute(r->traj_count, perm, r->n, sizeof(int64_t));
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(r, c);
+    int rc = 0;
+    for (size_t k = 0; k < nc && !rc; k++) {
+        /* row j of the sorted column is old row perm[j] */
+        const size_t row = (size_t)c[k].per_row * c[k].elem;
+        char *tmp = malloc((size_t)r->n * row), *base = *c[k].data;
+        if (!tmp) {
+            rc = GCP_ERR_NOMEM;
+            break;
+        }
+        for (int64_t j = 0; j < r->n; j++) memcpy(tmp + (size_t)j * row, base + (size_t)perm[j] * row, row);
+        memcpy(base, tmp, (size_t)r->n * row);
+        free(tmp);
+    }
     free(perm);
-    return rc ? GCP_ERR_NOMEM : 0;
+    return rc;
+}
+
+int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)
+{
+    if (dst->S != src->S) return GCP_ERR_STATE;
+    if (gcp_results_reserve(dst, src->n)) return GCP_ERR_NOMEM;
+    struct gcp_results_column cd[GCP_RESULTS_MAX_COLUMNS], cs[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(dst, cd);
+    gcp_results_columns((struct gcp_results *)src, cs);
+    for (size_t k = 0; k < nc; k++) {
+        const size_t row = (size_t)cd[k].per_row * cd[k].elem;
+        memcpy((char *)*cd[k].data + (size_t)dst->n * row, *cs[k].data, (size_t)src->n * row);
+    }
+    dst->n += src->n;
+    dst->rank_cpu += src->rank_cpu;
+    return 0;
 }
 
 void gcp_results_free(struct gcp_results *r)
 {
-    free(r->id);
-    free(r->pop);
-    free(r->x0);
-    free(r->u0);
-    free(r->t);
-    free(r->x);
-    free(r->u);
-    free(r->status);
-    free(r->steps);
-    free(r->cpu);
-    free(r->traj_t);
-    free(r->traj_x);
-    free(r->traj_u);
-    free(r->traj_count);
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(r, c);
+    for (size_t k = 0; k < nc; k++) free(*c[k].data);
     memset(r, 0, sizeof *r);
 }

@@ -1,4 +1,4 @@
-/* Private: MPI work sharing. */
+/* Private: MPI work sharing and progress counters. */
 #ifndef GCPUSH_PAR_H
 #define GCPUSH_PAR_H
 
@@ -6,18 +6,23 @@
 
 #include <mpi.h>
 
-/* A shared counter of work items 0 .. n-1 (MPI-3 one-sided atomics on rank
- * 0's window): every rank takes the next item when it is free, so ranks
- * that draw cheap particles take more; no rank only hands out work. */
+/* Shared counters in rank 0's window (MPI-3 one-sided atomics):
+ *   [0] next work item, [1] particles done, [2] particle-steps done.
+ * Every rank takes the next item when it is free, so ranks that draw cheap
+ * particles take more; no rank only hands out work. */
 struct gcp_par_counter {
     MPI_Win win;
-    int64_t *base;  /* the counter itself (rank 0), else NULL */
-    int64_t n;      /* items */
+    int64_t *base;  /* the counters (rank 0), else NULL */
+    int64_t n;      /* work items */
 };
 
 int gcp_par_counter_create(struct gcp_par_counter *c, int64_t n, MPI_Comm comm);
-/* The next item, or -1 when all are taken (usable as gcp_next_chunk_fn). */
-int64_t gcp_par_counter_next(void *counter);
+/* The next item, or -1 when all are taken. */
+int64_t gcp_par_counter_take(struct gcp_par_counter *c);
+/* Adds finished particles and steps to the shared totals. */
+void gcp_par_counter_report(struct gcp_par_counter *c, int64_t particles, int64_t steps);
+/* Reads the totals (any rank; cheap on rank 0). */
+void gcp_par_counter_totals(struct gcp_par_counter *c, int64_t *particles, int64_t *steps);
 void gcp_par_counter_free(struct gcp_par_counter *c);
 
 #endif

@@ -34,6 +34,17 @@ void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64
     }
 }
 
+int64_t gcp_scene_chunk_of(const struct gcp_scene *s, int64_t id)
+{
+    int64_t base = 0;
+    for (size_t k = 0; k < s->npop; k++) {
+        const struct gcp_population *p = &s->pops[k];
+        if (id < p->first_id + p->count) return base + (id - p->first_id) / GCP_CHUNK;
+        base += (p->count + GCP_CHUNK - 1) / GCP_CHUNK;
+    }
+    return -1;
+}
+
 static double cpu_now(void)
 {
     struct timespec ts;
@@ -64,15 +75,15 @@ static void record(const struct gcp_block *b, double t, void *vctx)
     }
 }
 
-int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res, gcp_next_chunk_fn next,
-                   void *ctx, struct gcp_error *err)
+int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
+                   const struct gcp_schedule *sched, struct gcp_error *err)
 {
     struct gcp_block b;
     if (gcp_block_alloc(&b, GCP_CHUNK)) return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
     const double t0 = 0.0;
     const int64_t S = res->S;
     int64_t c;
-    while ((c = next(ctx)) >= 0) {
+    while ((c = sched->next(sched->ctx)) >= 0) {
         int64_t first, count;
         gcp_scene_chunk(s, c, &first, &count);
         if (count <= 0) continue;
@@ -130,6 +141,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res, gcp_next_
             res->cpu[row] = total_steps ? spent * (double)b.steps[i] / (double)total_steps : 0.0;
         }
         res->n += count;
+        if (sched->done) sched->done(sched->ctx, res, count, total_steps);
     }
     gcp_block_free(&b);
     return 0;

@@ -376,7 +376,11 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     if ((rc = gcp_section_string(s, "file", 1, sc->output, sizeof sc->output, err)) < 0) return rc;
     int64_t traj_every, traj_samples;
     if ((rc = parse_trajectory(s, &traj_every, &traj_samples, err))) return rc;
-    if ((rc = gcp_section_check_unused(s, "file trajectory", err))) return rc;
+    if ((rc = gcp_section_quantity(s, "checkpoint", GCP_Q_TIME, 0, &sc->checkpoint_every, err)) < 0)
+        return rc;
+    if (rc == 1 && !(sc->checkpoint_every > 0))
+        return gcp_section_error(s, "checkpoint", err, GCP_ERR_VALUE, "must be > 0");
+    if ((rc = gcp_section_check_unused(s, "file trajectory checkpoint", err))) return rc;
 
     struct gcp_section *ss = gcp_run_file_section(rf, "scene");
     struct gcp_section *is = gcp_run_file_section(rf, "integrator");

@@ -1,0 +1,166 @@
+/* Checkpoints: each rank saves the rows of the chunks it finished to its own
+ * file OUT.ckpt.RANK (written to a temporary name, then renamed, so a kill
+ * mid-write leaves the previous checkpoint intact).  Ranks write whenever
+ * they like, with no collective call, so a checkpoint never waits for the
+ * slowest rank.  A restart, with any number of ranks, loads every such file,
+ * keeps one copy of each chunk, and pushes only the chunks nobody finished;
+ * particles depend only on (seed, id), so the final file equals the one an
+ * uninterrupted run writes (timings aside).
+ *
+ * Format (native byte order; the same machine family writes and reads):
+ *   "GCPCKPT1", int64 S, int64 rows, int64 len, run text, int64 len, run path,
+ *   double rank_cpu, then each column of struct gcp_results in table order. */
+#include <errno.h>
+#include <glob.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/io.h"
+#include "io_priv.h"
+
+static const char magic[8] = {'G', 'C', 'P', 'C', 'K', 'P', 'T', '1'};
+
+static int put(FILE *fp, const void *p, size_t n) { return fwrite(p, 1, n, fp) == n ? 0 : -1; }
+static int get(FILE *fp, void *p, size_t n) { return fread(p, 1, n, fp) == n ? 0 : -1; }
+
+int gcp_checkpoint_write(const struct gcp_scene *sc, struct gcp_results *r, int rank,
+                         struct gcp_error *err)
+{
+    char path[1200], tmp[1300];
+    snprintf(path, sizeof path, "%s.ckpt.%d", sc->output, rank);
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    FILE *fp = fopen(tmp, "wb");
+    if (!fp) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot write checkpoint: %s", tmp, strerror(errno));
+    const int64_t tl = (int64_t)strlen(sc->text), pl = (int64_t)strlen(sc->path);
+    int bad = put(fp, magic, sizeof magic) | put(fp, &r->S, sizeof r->S) |
+              put(fp, &r->n, sizeof r->n) | put(fp, &tl, sizeof tl) | put(fp, sc->text, (size_t)tl) |
+              put(fp, &pl, sizeof pl) | put(fp, sc->path, (size_t)pl) |
+              put(fp, &r->rank_cpu, sizeof r->rank_cpu);
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(r, c);
+    for (size_t k = 0; k < nc && r->n; k++)
+        bad |= put(fp, *c[k].data, (size_t)r->n * (size_t)c[k].per_row * c[k].elem);
+    bad |= fflush(fp) != 0;
+    bad |= fclose(fp) != 0;
+    if (bad || rename(tmp, path) != 0) {
+        remove(tmp);
+        return gcp_error_set(err, GCP_ERR_IO, "%s: writing the checkpoint failed", path);
+    }
+    return 0;
+}
+
+/* Reads the header: run text and path (malloc'ed), S and rows. */
+static int read_header(FILE *fp, char **text, char **path, int64_t *S, int64_t *rows,
+                       double *cpu)
+{
+    char m[8];
+    int64_t tl, pl;
+    *text = *path = NULL;
+    if (get(fp, m, 8) || memcmp(m, magic, 8) || get(fp, S, sizeof *S) || get(fp, rows, sizeof *rows) ||
+        get(fp, &tl, sizeof tl) || tl < 0 || tl > (1 << 24))
+        return -1;
+    if (!(*text = malloc((size_t)tl + 1)) || get(fp, *text, (size_t)tl)) return -1;
+    (*text)[tl] = '\0';
+    if (get(fp, &pl, sizeof pl) || pl < 0 || pl > 4096) return -1;
+    if (!(*path = malloc((size_t)pl + 1)) || get(fp, *path, (size_t)pl)) return -1;
+    (*path)[pl] = '\0';
+    if (get(fp, cpu, sizeof *cpu) || *S < 0 || *rows < 0) return -1;
+    return 0;
+}
+
+int gcp_checkpoint_list(const char *output, char ***files, size_t *n)
+{
+    char pattern[1200];
+    snprintf(pattern, sizeof pattern, "%s.ckpt.[0-9]*", output);
+    glob_t g;
+    *files = NULL;
+    *n = 0;
+    int rc = glob(pattern, 0, NULL, &g);
+    if (rc == GLOB_NOMATCH) return 0;
+    if (rc) return GCP_ERR_IO;
+    size_t k = 0;
+    char **out = calloc(g.gl_pathc + 1, sizeof *out);
+    if (!out) {
+        globfree(&g);
+        return GCP_ERR_NOMEM;
+    }
+    for (size_t i = 0; i < g.gl_pathc; i++) {
+        const char *p = g.gl_pathv[i];
+        const size_t len = strlen(p);
+        if (len > 4 && strcmp(p + len - 4, ".tmp") == 0) continue; /* an interrupted write */
+        out[k++] = strdup(p);
+    }
+    globfree(&g);
+    *files = out;
+    *n = k;
+    return 0;
+}
+
+int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct gcp_error *err)
+{
+    FILE *fp = fopen(file, "rb");
+    if (!fp) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot open: %s", file, strerror(errno));
+    int64_t S, rows;
+    double cpu;
+    int bad = read_header(fp, text, path, &S, &rows, &cpu);
+    fclose(fp);
+    if (bad) {
+        free(*text);
+        free(*path);
+        *text = *path = NULL;
+        return gcp_error_set(err, GCP_ERR_IO, "%s: not a gcpush checkpoint or truncated", file);
+    }
+    return 0;
+}
+
+int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp_results *r,
+                        struct gcp_error *err)
+{
+    FILE *fp = fopen(file, "rb");
+    if (!fp) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot open: %s", file, strerror(errno));
+    char *text = NULL, *path = NULL;
+    int64_t S, rows;
+    double cpu;
+    struct gcp_results part;
+    gcp_results_init(&part, r->S);
+    int bad = read_header(fp, &text, &path, &S, &rows, &cpu);
+    bad = bad || strcmp(text, sc->text) != 0 || S != r->S || gcp_results_reserve(&part, rows);
+    if (!bad) {
+        struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+        const size_t nc = gcp_results_columns(&part, c);
+        for (size_t k = 0; k < nc && !bad; k++)
+            bad = get(fp, *c[k].data, (size_t)rows * (size_t)c[k].per_row * c[k].elem);
+        part.n = rows;
+        part.rank_cpu = cpu;
+        for (int64_t i = 0; i < rows && !bad; i++)
+            bad = part.id[i] < 0 || part.id[i] >= sc->total || part.pop[i] < 0 ||
+                  (size_t)part.pop[i] >= sc->npop;
+    }
+    fclose(fp);
+    free(text);
+    free(path);
+    if (!bad) bad = gcp_results_append(r, &part) != 0;
+    gcp_results_free(&part);
+    if (bad)
+        return gcp_error_set(err, GCP_ERR_IO,
+                             "%s: truncated, corrupt, or from a different run file", file);
+    return 0;
+}
+
+void gcp_results_drop(struct gcp_results *r, const unsigned char *keep)
+{
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(r, c);
+    int64_t w = 0;
+    for (int64_t i = 0; i < r->n; i++) {
+        if (!keep[i]) continue;
+        if (w != i)
+            for (size_t k = 0; k < nc; k++) {
+                const size_t row = (size_t)c[k].per_row * c[k].elem;
+                memcpy((char *)*c[k].data + (size_t)w * row, (char *)*c[k].data + (size_t)i * row, row);
+            }
+        w++;
+    }
+    r->n = w;
+}
