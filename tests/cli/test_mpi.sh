@@ -1,0 +1,136 @@
+#!/bin/sh
+# MPI ensembles: the same datasets for 1, 2 and 3 ranks; SIGKILL then
+# --restart gives the uninterrupted file; SIGTERM writes a checkpoint and
+# exits 3; bad input under MPI gives one message and no hang.
+set -u
+. "$(dirname "$0")/lib.sh"
+cd "$TMP"
+MPIRUN="mpirun --oversubscribe --bind-to none"
+
+# 200 protons and 200 electrons over L = 2..6 (a short run: ~1 s per rank)
+cat > ens.run <<'RUN'
+[scene]
+name     = ens
+field    = dipole
+duration = 0.2 s
+seed     = 3
+[particles.p]
+species  = proton
+count    = 200
+energy   = 1 MeV .. 30 MeV log
+L        = 2 .. 6
+pitch    = isotropic
+[particles.e]
+species  = electron
+count    = 200
+energy   = 0.1 MeV .. 1 MeV log
+L        = 3 .. 6
+pitch    = isotropic
+[integrator]
+method   = boris
+dt       = 0.1 gyro
+[output]
+file       = OUT
+trajectory = 20 samples
+RUN
+
+# data only: attributes of / (rank count) and /timing differ by design
+same() {
+    for g in /particles /trajectories; do
+        h5diff "$1" "$2" $g $g > diff.txt 2>&1 || die "$1 and $2 differ in $g: $(head -5 diff.txt)"
+    done
+}
+
+for n in 1 2 3; do
+    sed "s/OUT/r$n.h5/" ens.run > r$n.run
+    $MPIRUN -np $n "$GCPUSH" --quiet r$n.run || die "run on $n ranks failed"
+done
+same r1.h5 r2.h5
+same r1.h5 r3.h5
+ranks=$(h5dump -a /ranks r3.h5 | grep -o '(0): [0-9]*' | cut -d' ' -f2)
+[ "$ranks" = 3 ] || die "ranks attribute is '$ranks', not 3"
+
+# SIGKILL halfway, then restart on 2 ranks: the same file, no particle twice
+# many short chunks (GCP_CHUNK = 64 particles), so checkpoints come often
+sed "s/OUT/long.h5/; s/^duration = 0.2 s/duration = 1 s/; s/^count    = 200/count    = 960/; s/^\[output\]/[output]\ncheckpoint = 0.1 s/" ens.run > long.run
+sed "s/long.h5/ref.h5/" long.run > ref.run
+start=$(date +%s%N)
+"$GCPUSH" --quiet ref.run || die "reference run failed"
+took=$(awk -v a="$start" -v b="$(date +%s%N)" 'BEGIN { print (b - a) / 1e9 }')
+half=$(awk -v t="$took" 'BEGIN { print t * 0.6 }')
+third=$(awk -v t="$took" 'BEGIN { print t * 0.5 }')
+"$GCPUSH" --quiet long.run & pid=$!
+sleep "$half"
+kill -9 $pid; wait $pid 2>/dev/null
+[ -f long.h5 ] && die "a killed run left its output file"
+ls long.h5.ckpt.* > /dev/null 2>&1 || die "no checkpoint after $half s"
+$MPIRUN -np 2 "$GCPUSH" --restart long.h5 > restart.txt || die "restart failed: $(cat restart.txt)"
+grep -q "restart: [1-9][0-9]* particles from" restart.txt || die "restart loaded nothing: $(cat restart.txt)"
+same ref.h5 long.h5
+ls long.h5.ckpt.* > /dev/null 2>&1 && die "checkpoints left after a finished run"
+n=$(h5dump -d /particles/id long.h5 | grep -c '^ *([0-9]*)')
+[ "$n" -gt 0 ] || die "no ids"
+
+# SIGTERM: checkpoint, exit status 3, no output; the restart completes it
+rm -f long.h5
+"$GCPUSH" --quiet long.run 2> term.txt & pid=$!
+sleep "$third"
+kill -TERM $pid; wait $pid; rc=$?
+[ $rc = 3 ] || die "SIGTERM: exit status $rc, not 3"
+grep -q "checkpoint written" term.txt || die "SIGTERM: $(cat term.txt)"
+[ -f long.h5 ] && die "an interrupted run wrote its output"
+"$GCPUSH" --quiet --restart long.h5 || die "restart after SIGTERM failed"
+same ref.h5 long.h5
+
+# load balance: half the particles sit in the loss cone (mirror ratio 5,
+# loss cone 26.6 deg; pitch uniform in 5..48 deg) and leave within a
+# bounce, the rest are trapped for the whole run.  Self-scheduled 64-particle
+# chunks (40 of them) must keep the two ranks' busy times within 10%: with
+# 20 chunks per rank one chunk is ~5% of a rank's work, so the worst case of
+# the scheme is about one chunk of imbalance.
+cat > lb.run <<'RUN'
+[scene]
+name     = lb
+field    = mirror
+duration = 300 us
+seed     = 5
+[field]
+B0    = 1 T
+Lm    = 0.5 m
+z_max = 1 m
+[particles]
+species  = proton
+count    = 2560
+energy   = 10 keV
+position = 0 0 0 m
+pitch    = 5 deg .. 48 deg
+[integrator]
+method = boris
+dt     = 0.02 gyro
+[output]
+file = lb.h5
+RUN
+$MPIRUN -np 2 "$GCPUSH" --quiet lb.run || die "load-balance run failed"
+"$PY" - lb.h5 <<'PYEOF' || die "load imbalance"
+import sys, h5py
+f = h5py.File(sys.argv[1], "r")
+cpu = f["timing/rank_cpu_seconds"][:]
+lost = (f["particles/final/status"][:] != 0).mean()
+imb = abs(cpu[0] - cpu[1]) / cpu.mean()
+print("load balance: lost fraction %.2f, rank busy %s s, imbalance %.1f%%" % (lost, cpu.round(3), 100 * imb))
+sys.exit(0 if 0.35 < lost < 0.65 and imb < 0.10 else 1)
+PYEOF
+
+# bad input under MPI: one message (from rank 0), same exit status, no hang
+sed 's/OUT/bad.h5/; s/^count    = 200/count    = two hundred/' ens.run > bad.run
+timeout 60 $MPIRUN -np 3 "$GCPUSH" bad.run > out.txt 2> err.txt; rc=$?
+[ $rc = 124 ] && die "bad input under MPI hangs"
+[ $rc != 0 ] || die "bad input under MPI: exit status 0"
+[ "$(grep -c 'bad.run:8: \[particles.p\] count: expected a whole number' err.txt)" = 1 ] ||
+    die "bad input under MPI: $(cat err.txt)"
+sed 's|OUT|/nonexistent/dir/x.h5|' ens.run > unw.run
+timeout 60 $MPIRUN -np 3 "$GCPUSH" unw.run > out.txt 2> err.txt; rc=$?
+[ $rc != 0 ] && [ $rc != 124 ] || die "unwritable output under MPI: exit status $rc"
+[ "$(grep -c 'cannot write' err.txt)" = 1 ] || die "unwritable output under MPI: $(cat err.txt)"
+ls bad.h5* /nonexistent/dir/x.h5* > /dev/null 2>&1 && die "partial output after a failure"
+echo "ok test_mpi"
