@@ -1,0 +1,75 @@
+#!/bin/sh
+# The run files in runs/ are examples: each must validate, and the small
+# ones run here with their physics checked from the output file.
+set -u
+. "$(dirname "$0")/lib.sh"
+RUNS=$(cd "$(dirname "$0")/../../runs" && pwd)
+for r in "$RUNS"/*.run "$RUNS"/*/*.run; do
+    [ -f "$r" ] || continue
+    (cd "$(dirname "$RUNS")" && "$GCPUSH" --check "$r" > /dev/null) || die "$r does not validate"
+done
+cd "$TMP"
+
+# uniform.run: E x B drift.  The guiding centre X = x + (v - v_E) x b / Omega
+# (Omega = q B / gamma m) moves at v_E = E x B / B^2 = (0, -1000, 0) m/s.
+# From the initial and final states of 20 gyro periods: the pusher's phase and
+# radius errors at omega dt = 0.13 are ~(omega dt)^2/12 ~ 1.3e-3 of the
+# gyroradius (0.46 m for the proton) against a 1.3 m drift, so 1% is a bound
+# that holds with margin and fails on a wrong drift.
+sed "s|^file .*|file = uniform.h5|" "$RUNS/uniform.run" > u.run
+"$GCPUSH" --quiet u.run || die "uniform.run failed"
+"$PY" - uniform.h5 <<'PYEOF' || die "uniform.run: E x B drift"
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+c = 299792458.0
+B = np.array([0, 0, 1e-3]); E = np.array([1.0, 0, 0])
+vE = np.cross(E, B) / B.dot(B)
+q = f["particles/charge"][:]; m = f["particles/mass"][:]
+assert (f["particles/final/status"][:] == 0).all()
+def gc(x, u, q, m):
+    g = np.sqrt(1 + u.dot(u) / c**2)
+    Om = q * np.linalg.norm(B) / (g * m)
+    return x + np.cross(u / g - vE, B / np.linalg.norm(B)) / Om
+for p in range(len(q)):
+    X0 = gc(f["particles/initial/x"][p], f["particles/initial/u"][p], q[p], m[p])
+    X1 = gc(f["particles/final/x"][p], f["particles/final/u"][p], q[p], m[p])
+    v = (X1 - X0) / f["particles/final/t"][p]
+    print("E x B drift of %s: %s m/s (theory %s)" % (f["particles/species"][p].decode(), v.round(3), vE))
+    assert np.linalg.norm(v - vE) < 0.01 * np.linalg.norm(vE), v
+PYEOF
+
+# mirror.run: the loss cone of mirror ratio R = 1 + (z_max/Lm)^2 = 5 is
+# asin(sqrt(1/R)) = 26.57 deg.  Particles at least 1 deg outside it stay,
+# 1 deg inside leave (first-order adiabatic theory: rho/Lm = 0.03 moves the
+# effective boundary by well under a degree).
+sed "s|^file .*|file = mirror.h5|" "$RUNS/mirror.run" > m.run
+"$GCPUSH" --quiet m.run || die "mirror.run failed"
+"$PY" - mirror.h5 <<'PYEOF' || die "mirror.run: loss cone"
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+u = f["particles/initial/u"][:]; s = f["particles/final/status"][:]
+a = np.degrees(np.arccos(np.abs(u[:, 2]) / np.linalg.norm(u, axis=1)))
+lc = np.degrees(np.arcsin(np.sqrt(1 / 5.0)))
+assert (s[a > lc + 1] == 0).all() and (s[a < lc - 1] == 2).all(), list(zip(a.round(1), s))
+print("mirror: %d trapped, %d lost, loss cone %.2f deg" % ((s == 0).sum(), (s == 2).sum(), lc))
+PYEOF
+
+# dipole.run, shortened: Boris keeps |u| exactly in a pure magnetic field,
+# so every particle's gamma is unchanged to round-off (1e6 steps of ~1e-16
+# relative error each, random walk ~1e-13; 1e-11 leaves a margin but fails
+# on any real energy error).
+sed "s|^file .*|file = dipole.h5|; s|^duration .*|duration = 0.1 s|" "$RUNS/dipole.run" > d.run
+"$GCPUSH" --quiet d.run || die "dipole.run failed"
+"$PY" - dipole.h5 <<'PYEOF' || die "dipole.run: energy"
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+c = 299792458.0
+g0 = np.sqrt(1 + (f["particles/initial/u"][:] ** 2).sum(1) / c**2)
+g1 = np.sqrt(1 + (f["particles/final/u"][:] ** 2).sum(1) / c**2)
+err = np.abs(g1 - g0) / (g0 - 1)
+s = f["particles/final/status"][:]
+assert set(s) <= {0, 1}, set(s)
+assert err.max() < 1e-11, err.max()
+print("dipole: max relative kinetic energy error %.2e over %d particles" % (err.max(), len(s)))
+PYEOF
+echo "ok test_runs"
