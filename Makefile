@@ -10,7 +10,7 @@ JOBS     ?= 2
 
 DEB_PACKAGES := build-essential pkg-config libhdf5-openmpi-dev libopenmpi-dev openmpi-bin \
                 libgsl-dev libcriterion-dev libinih-dev python3-h5py python3-numpy \
-                python3-matplotlib hdf5-tools
+                python3-matplotlib hdf5-tools clang libclang-rt-14-dev
 
 ifeq ($(DEBUG),1)
 BUILD    := build-debug
@@ -40,13 +40,28 @@ LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)
 TEST_SRC := $(wildcard tests/unit/*.c)
 TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 
+# The run-file reader under libFuzzer with ASan+UBSan: the parsing layers
+# only (no MPI, no HDF5), compiled by clang into one binary.
+FUZZ_SECONDS ?= 600
+FUZZER   := build-fuzz/fuzz_runfile
+FUZZ_SRC := src/error.c src/units.c src/particles.c src/run/section.c src/run/runfile.c \
+            src/run/scene.c src/diag/periods.c src/pushers/block.c src/pushers/fo_step.c \
+            $(wildcard src/pushers/boris*.c src/pushers/vay.c src/pushers/higuera_cary.c) \
+            $(wildcard src/pushers/gc_*.c) $(wildcard fields/*.c) tests/fuzz/fuzz_runfile.c
+$(FUZZER): $(FUZZ_SRC) $(wildcard include/gcpush/*.h src/*/*.h fields/*.h)
+	@mkdir -p build-fuzz
+	@echo "  CLANG $@"
+	@clang $(CSTD) -Wall -Wextra -Werror -O1 -g -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=all $(CPPFLAGS) $(shell pkg-config --cflags $(PKGS) 2>/dev/null) \
+	  -o $@ $(FUZZ_SRC) $(LDLIBS)
+
 LIBA     := $(BUILD)/libgcpush.a
 LIBSO    := $(BUILD)/libgcpush.so
 BIN      := bin/gcpush
 UNIT     := $(BUILD)/test_unit
 PY       := /usr/bin/python3
 
-.PHONY: all help deps build run check check-built test-unit test-cli bench install clean
+.PHONY: all help deps build run check check-built test-unit test-cli bench fuzz install clean
 
 all: build
 
@@ -56,6 +71,7 @@ help:
 	@echo "make DEBUG=1 check   the same under AddressSanitizer + UBSan"
 	@echo "make build      build lib (build/libgcpush.a .so), bin/gcpush, gcpush.pc"
 	@echo "make bench      benchmarks (ratios, not tests)"
+	@echo "make fuzz FUZZ_SECONDS=600   fuzz the run-file reader (libFuzzer + ASan/UBSan)"
 	@echo "make install PREFIX=/opt/gcpush   headers, libs, binary, pkg-config file"
 	@echo "make deps       apt-get install the Debian packages that are missing"
 	@echo "make clean"
@@ -106,9 +122,22 @@ run: deps
 check: deps
 	@$(MAKE) --no-print-directory check-built
 
-check-built: build $(UNIT)
+check-built: build $(UNIT) $(FUZZER)
 	$(UNIT) --jobs=$(JOBS)
 	BUILD=$(BUILD) PY=$(PY) sh tests/cli/run_all.sh
+	@$(MAKE) --no-print-directory fuzz-run FUZZ_SECONDS=20
+
+fuzz: deps
+	@$(MAKE) --no-print-directory $(FUZZER)
+	@$(MAKE) --no-print-directory fuzz-run
+
+fuzz-run: $(FUZZER)
+	@mkdir -p build-fuzz/corpus
+	@echo "fuzzing the run-file reader for $(FUZZ_SECONDS) s"
+	@$(FUZZER) -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=4096 \
+	  -dict=tests/fuzz/runfile.dict -print_final_stats=0 build-fuzz/corpus tests/fuzz/corpus \
+	  > build-fuzz/last.log 2>&1 || { tail -40 build-fuzz/last.log; exit 1; }
+	@grep -E "^(Done|#[0-9]+ +DONE)" build-fuzz/last.log | tail -1
 
 bench: deps
 	@$(MAKE) --no-print-directory build
@@ -123,4 +152,4 @@ install: build
 	sed 's|^prefix=.*|prefix=$(PREFIX)|' gcpush.pc > $(DESTDIR)$(PREFIX)/lib/pkgconfig/gcpush.pc
 
 clean:
-	rm -rf build build-debug bin gcpush.pc
+	rm -rf build build-debug build-fuzz bin gcpush.pc
