@@ -6,7 +6,7 @@
 
 const struct gcp_pusher_type gcp_pusher_boris_zu = {
     .name = "boris-zu",
-    .doc = "Boris with the exact gyro-angle (Zenitani & Umeda 2018): correct gyrophase at any omega_c dt",
+    .doc = "Boris with the exact gyro-angle (Zenitani & Umeda 2018): correct gyrophase at any omega_c dt (drifts keep Boris error (omega dt)^2/12)",
     .order = 2,
     .kind = GCP_FULL_ORBIT,
     .advance = gcp_block_advance_fo_opts,

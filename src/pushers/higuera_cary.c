@@ -6,7 +6,7 @@
 
 const struct gcp_pusher_type gcp_pusher_higuera_cary = {
     .name = "higuera-cary",
-    .doc = "Higuera & Cary (2017): volume preserving and correct E x B drift at any gamma",
+    .doc = "Higuera & Cary (2017): volume preserving, exact force-free motion at any gamma",
     .order = 2,
     .kind = GCP_FULL_ORBIT,
     .advance = gcp_block_advance_fo_opts,
