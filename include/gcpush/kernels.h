@@ -84,7 +84,11 @@ static inline GCP_HD void gcp_push_boris(double *ux, double *uy, double *uz,
  *   theta = q |B| dt / (m gamma-)
  * exactly, written with cos/sin so it stays regular at theta = pi:
  *   u+ = (u-.b) b + [u- - (u-.b) b] cos(theta) + (u- x b) sin(theta).
- * In uniform B with E = 0 the gyrophase is exact for any omega_c dt. */
+ * In uniform B with E = 0 the gyrophase is exact for any omega_c dt.
+ * Limitation: the electric half-kicks are Boris's, so the E x B (and grad-B,
+ * curvature) drift is V (theta/2) cot(theta/2) = V (1 - theta^2/12 + ...):
+ * 2% slow at omega_c dt = 0.5, and the force-free case is not kept.  Use
+ * vay or higuera-cary where E matters at large omega_c dt. */
 static inline GCP_HD void gcp_push_boris_zu(double *ux, double *uy, double *uz,
                                             double Ex, double Ey, double Ez,
                                             double Bx, double By, double Bz,
@@ -140,7 +144,10 @@ static inline GCP_HD void gcp_push_vay(double *ux, double *uy, double *uz,
 }
 
 /* Higuera-Cary pusher (Higuera & Cary 2017, Phys. Plasmas 24 052104, eqs.
- * 20-23): volume preserving and correct E x B at any gamma.
+ * 20-23): volume preserving; the force-free motion (E + v x B = 0) is exact
+ * at any gamma, while the relativistic E x B drift of a gyrating particle
+ * carries an O((omega_c dt)^2) error (Vay's is exact there).  The gyro-angle
+ * per step is 2 atan(tau / gamma_bar), gamma_bar of the step-averaged u.
  *   u-  = u + (q dt/2m) E,  tau = (q dt/2m) B
  *   gamma_new from the same quartic root as Vay with u- in place of u'
  *   t = tau/gamma_new,  s = 1/(1 + t^2)
@@ -174,7 +181,12 @@ static inline GCP_HD void gcp_push_higuera_cary(double *ux, double *uy, double *
 
 /* Batch forms over struct-of-arrays: the same scalar kernel in a restrict-ed
  * loop the compiler vectorises; bit-identical to calling the scalar kernel
- * per particle.  u arrays are updated in place; E and B are gathered. */
+ * per particle.  u arrays are updated in place; E and B are gathered.
+ * The loop body copies u through locals on purpose: every array access is
+ * then made directly through a restrict parameter, which is what lets GCC
+ * keep the no-alias facts when it inlines the batch function into a caller
+ * (passing &ux[i] to the scalar kernel loses them there, and the loop falls
+ * back to scalar code, 6x slower: measured by tests/bench). */
 #define GCP_DEFINE_BATCH_(NAME)                                                        \
     static inline GCP_HD void NAME##_batch(                                           \
         size_t n, double *GCP_RESTRICT ux, double *GCP_RESTRICT uy,                   \
@@ -183,77 +195,19 @@ static inline GCP_HD void gcp_push_higuera_cary(double *ux, double *uy, double *
         const double *GCP_RESTRICT Bx, const double *GCP_RESTRICT By,                 \
         const double *GCP_RESTRICT Bz, double q, double m, double dt)                 \
     {                                                                                  \
-        for (size_t i = 0; i < n; i++)                                                 \
-            NAME(&ux[i], &uy[i], &uz[i], Ex[i], Ey[i], Ez[i], Bx[i], By[i], Bz[i], q, \
-                 m, dt);                                                               \
+        for (size_t i = 0; i < n; i++) {                                               \
+            double a = ux[i], b = uy[i], c = uz[i];                                    \
+            NAME(&a, &b, &c, Ex[i], Ey[i], Ez[i], Bx[i], By[i], Bz[i], q, m, dt);      \
+            ux[i] = a;                                                                 \
+            uy[i] = b;                                                                 \
+            uz[i] = c;                                                                 \
+        }                                                                              \
     }
 
 GCP_DEFINE_BATCH_(gcp_push_boris)
 GCP_DEFINE_BATCH_(gcp_push_boris_zu)
 GCP_DEFINE_BATCH_(gcp_push_vay)
 GCP_DEFINE_BATCH_(gcp_push_higuera_cary)
-
-/* Array-of-structs adapters, for codes that keep a particle as a struct.
- *
- * gcp_particle_aos is the plain 6-double layout; NAME_aos pushes n of them
- * with E and B gathered into struct-of-arrays (as a PIC gather writes them).
- * For any other layout (extra members such as weight or id, interleaved
- * arrays, fields gathered per particle as 6 doubles) the NAME_strided form
- * takes base pointers and strides counted in doubles:
- *   ux of particle i is u[i*us], uy u[i*us + 1], uz u[i*us + 2];
- *   E of particle i is E[i*fs + 0..2], B is B[i*fs + 0..2].
- * E.g. for struct { double x[3], u[3], w; } p[n] with gathered
- * double eb[n][6] (Ex Ey Ez Bx By Bz):
- *   gcp_push_boris_strided(n, p[0].u, 7, &eb[0][0], &eb[0][3], 6, q, m, dt)
- * (a struct of doubles has no padding on any ABI gcpush targets; check
- * sizeof(p[0]) == 7 * sizeof(double) once, as the test does).
- * Both call the scalar kernel per particle: bit-identical to it.           */
-struct gcp_particle_aos {
-    double x, y, z;    /* [m] position */
-    double ux, uy, uz; /* [m/s] u = gamma v */
-};
-
-#define GCP_DEFINE_AOS_(NAME)                                                          \
-    static inline GCP_HD void NAME##_aos(                                             \
-        size_t n, struct gcp_particle_aos *GCP_RESTRICT p,                            \
-        const double *GCP_RESTRICT Ex, const double *GCP_RESTRICT Ey,                 \
-        const double *GCP_RESTRICT Ez, const double *GCP_RESTRICT Bx,                 \
-        const double *GCP_RESTRICT By, const double *GCP_RESTRICT Bz, double q,       \
-        double m, double dt)                                                           \
-    {                                                                                  \
-        for (size_t i = 0; i < n; i++)                                                 \
-            NAME(&p[i].ux, &p[i].uy, &p[i].uz, Ex[i], Ey[i], Ez[i], Bx[i], By[i],      \
-                 Bz[i], q, m, dt);                                                     \
-    }                                                                                  \
-    static inline GCP_HD void NAME##_strided(                                         \
-        size_t n, double *GCP_RESTRICT u, size_t us, const double *GCP_RESTRICT E,    \
-        const double *GCP_RESTRICT B, size_t fs, double q, double m, double dt)       \
-    {                                                                                  \
-        for (size_t i = 0; i < n; i++) {                                               \
-            double *ui = u + i * us;                                                   \
-            const double *e = E + i * fs, *b = B + i * fs;                             \
-            NAME(&ui[0], &ui[1], &ui[2], e[0], e[1], e[2], b[0], b[1], b[2], q, m, dt); \
-        }                                                                              \
-    }
-
-GCP_DEFINE_AOS_(gcp_push_boris)
-GCP_DEFINE_AOS_(gcp_push_boris_zu)
-GCP_DEFINE_AOS_(gcp_push_vay)
-GCP_DEFINE_AOS_(gcp_push_higuera_cary)
-
-/* Position update x += (u / gamma) h over n AoS particles (h = dt for a
- * leapfrog PIC step, dt/2 for gcpush's drift-kick-drift halves); the same
- * arithmetic as gcp_drift_batch, so bit-identical to it. */
-static inline GCP_HD void gcp_drift_aos(size_t n, struct gcp_particle_aos *GCP_RESTRICT p,
-                                        double h)
-{
-    for (size_t i = 0; i < n; i++) {
-        const double hg = h / gcp_gamma_of_u(p[i].ux, p[i].uy, p[i].uz);
-        p[i].x += p[i].ux * hg;
-        p[i].y += p[i].uy * hg;
-        p[i].z += p[i].uz * hg;
-    }
-}
 
 /* Synchronised half drift x += (u / gamma) h over a batch, h = dt/2 [s]. */
 static inline GCP_HD void gcp_drift_batch(size_t n, double *GCP_RESTRICT x,
@@ -268,6 +222,181 @@ static inline GCP_HD void gcp_drift_batch(size_t n, double *GCP_RESTRICT x,
         y[i] += uy[i] * hg;
         z[i] += uz[i] * hg;
     }
+}
+
+/* Array-of-structs adapters, for codes that keep a particle as a struct.
+ *
+ * gcp_particle_aos is the plain 6-double layout; NAME_aos pushes n of them
+ * with E and B gathered into struct-of-arrays (as a PIC gather writes them),
+ * gcp_drift_aos moves them.  For any other layout (extra members such as
+ * weight or id, interleaved arrays, fields gathered per particle as 6
+ * doubles) the NAME_strided form takes base pointers and strides counted in
+ * doubles:
+ *   ux of particle i is u[i*us], uy u[i*us + 1], uz u[i*us + 2];
+ *   E of particle i is E[i*fs + 0..2], B is B[i*fs + 0..2].
+ * E.g. for struct { double x[3], u[3], w; } p[n] with gathered
+ * double eb[n][6] (Ex Ey Ez Bx By Bz):
+ *   gcp_push_boris_strided(n, p[0].u, 7, &eb[0][0], &eb[0][3], 6, q, m, dt)
+ * (a struct of doubles has no padding on the ABIs gcpush targets; check
+ * sizeof(p[0]) == 7 * sizeof(double) once, as tests/unit/test_kernels_aos.c
+ * does).
+ *
+ * On the host each goes through tiles of GCP_AOS_TILE particles copied into
+ * struct-of-arrays locals and pushed by the batch kernel: compilers do not
+ * vectorise a loop over 6- or 7-double records (GCC 12: group size not a
+ * power of 2), the batch loop they do, and the copies cost little next to
+ * the kick.  In CUDA device code the tile is one particle (one per thread).
+ * Same scalar arithmetic either way: bit-identical to the scalar kernels. */
+struct gcp_particle_aos {
+    double x, y, z;    /* [m] position */
+    double ux, uy, uz; /* [m/s] u = gamma v */
+};
+
+#if defined(__CUDA_ARCH__)
+#define GCP_AOS_TILE_ 1
+#elif defined(GCP_AOS_TILE)
+#define GCP_AOS_TILE_ GCP_AOS_TILE
+#else
+#define GCP_AOS_TILE_ 32
+#endif
+
+#define GCP_DEFINE_AOS_(NAME)                                                          \
+    static inline GCP_HD void NAME##_aos(                                             \
+        size_t n, struct gcp_particle_aos *GCP_RESTRICT p,                            \
+        const double *GCP_RESTRICT Ex, const double *GCP_RESTRICT Ey,                 \
+        const double *GCP_RESTRICT Ez, const double *GCP_RESTRICT Bx,                 \
+        const double *GCP_RESTRICT By, const double *GCP_RESTRICT Bz, double q,       \
+        double m, double dt)                                                           \
+    {                                                                                  \
+        double a[GCP_AOS_TILE_], b[GCP_AOS_TILE_], c[GCP_AOS_TILE_];                   \
+        for (size_t i0 = 0; i0 < n; i0 += GCP_AOS_TILE_) {                             \
+            const size_t nt = n - i0 < GCP_AOS_TILE_ ? n - i0 : GCP_AOS_TILE_;         \
+            const struct gcp_particle_aos *pt = p + i0;                                \
+            for (size_t t = 0; t < nt; t++) {                                          \
+                a[t] = pt[t].ux;                                                       \
+                b[t] = pt[t].uy;                                                       \
+                c[t] = pt[t].uz;                                                       \
+            }                                                                          \
+            NAME##_batch(nt, a, b, c, Ex + i0, Ey + i0, Ez + i0, Bx + i0, By + i0,     \
+                         Bz + i0, q, m, dt);                                           \
+            for (size_t t = 0; t < nt; t++) {                                          \
+                p[i0 + t].ux = a[t];                                                   \
+                p[i0 + t].uy = b[t];                                                   \
+                p[i0 + t].uz = c[t];                                                   \
+            }                                                                          \
+        }                                                                              \
+    }                                                                                  \
+    static inline GCP_HD void NAME##_strided(                                         \
+        size_t n, double *GCP_RESTRICT u, size_t us, const double *GCP_RESTRICT E,    \
+        const double *GCP_RESTRICT B, size_t fs, double q, double m, double dt)       \
+    {                                                                                  \
+        double a[GCP_AOS_TILE_], b[GCP_AOS_TILE_], c[GCP_AOS_TILE_];                   \
+        double f[6][GCP_AOS_TILE_];                                                    \
+        for (size_t i0 = 0; i0 < n; i0 += GCP_AOS_TILE_) {                             \
+            const size_t nt = n - i0 < GCP_AOS_TILE_ ? n - i0 : GCP_AOS_TILE_;         \
+            for (size_t t = 0; t < nt; t++) {                                          \
+                const size_t j = (i0 + t) * us, k = (i0 + t) * fs;                     \
+                a[t] = u[j];                                                           \
+                b[t] = u[j + 1];                                                       \
+                c[t] = u[j + 2];                                                       \
+                for (int d = 0; d < 3; d++) {                                          \
+                    f[d][t] = E[k + d];                                                \
+                    f[3 + d][t] = B[k + d];                                            \
+                }                                                                      \
+            }                                                                          \
+            NAME##_batch(nt, a, b, c, f[0], f[1], f[2], f[3], f[4], f[5], q, m, dt);   \
+            for (size_t t = 0; t < nt; t++) {                                          \
+                const size_t j = (i0 + t) * us;                                        \
+                u[j] = a[t];                                                           \
+                u[j + 1] = b[t];                                                       \
+                u[j + 2] = c[t];                                                       \
+            }                                                                          \
+        }                                                                              \
+    }
+
+GCP_DEFINE_AOS_(gcp_push_boris)
+GCP_DEFINE_AOS_(gcp_push_boris_zu)
+GCP_DEFINE_AOS_(gcp_push_vay)
+GCP_DEFINE_AOS_(gcp_push_higuera_cary)
+
+/* Position update x += (u / gamma) h over n AoS particles (h = dt for a
+ * leapfrog PIC step, dt/2 for gcpush's drift-kick-drift halves), through
+ * gcp_drift_batch: bit-identical to it. */
+static inline GCP_HD void gcp_drift_aos(size_t n, struct gcp_particle_aos *GCP_RESTRICT p,
+                                        double h)
+{
+    double x[GCP_AOS_TILE_], y[GCP_AOS_TILE_], z[GCP_AOS_TILE_];
+    double ux[GCP_AOS_TILE_], uy[GCP_AOS_TILE_], uz[GCP_AOS_TILE_];
+    for (size_t i0 = 0; i0 < n; i0 += GCP_AOS_TILE_) {
+        const size_t nt = n - i0 < GCP_AOS_TILE_ ? n - i0 : GCP_AOS_TILE_;
+        for (size_t t = 0; t < nt; t++) {
+            const struct gcp_particle_aos *pt = p + i0 + t;
+            x[t] = pt->x, y[t] = pt->y, z[t] = pt->z;
+            ux[t] = pt->ux, uy[t] = pt->uy, uz[t] = pt->uz;
+        }
+        gcp_drift_batch(nt, x, y, z, ux, uy, uz, h);
+        for (size_t t = 0; t < nt; t++) {
+            p[i0 + t].x = x[t];
+            p[i0 + t].y = y[t];
+            p[i0 + t].z = z[t];
+        }
+    }
+}
+
+/* ---- Guiding-centre right-hand side (issue 3 / issue 8) --------------------
+ *
+ * Relativistic guiding-centre equations (Cary & Brizard 2009, Rev. Mod. Phys.
+ * 81 693, eqs. 5.x; Littlejohn 1983) from the phase-space Lagrangian
+ *   L = (q A + p_par b).Xdot - H,   H = gamma m c^2 + q phi,
+ *   gamma = sqrt(1 + (p_par/mc)^2 + 2 mu |B| / (m c^2)):
+ *   B*      = B + (p_par/q) curl b,      B*_par = b.B*,
+ *   E*      = E - (mu/(q gamma)) grad|B|,
+ *   dX/dt   = [ (p_par/(gamma m)) B* + E* x b ] / B*_par,
+ *   dp_par/dt = q E*.B* / B*_par.
+ * Everything comes from B and the tensor G_ij = dB_i/dx_j:
+ *   grad|B|_j = b_i G_ij,
+ *   (curl B)_i = eps_ijk G_kj,
+ *   curl b = curl(B/|B|) = (curl B)/|B| + grad(1/|B|) x B
+ *          = (curl B)/|B| + (b x grad|B|)/|B|.
+ * (Static B assumed: a time-dependent b adds -p_par db/dt to E*, not done.)
+ * Inputs: B [T], G [T/m], E [V/m] (NULL: none), p_par [kg m/s], mu [J/T],
+ * q [C], m [kg].  Outputs dXdt [m/s], dppar [N].  Returns B*_par [T]: the
+ * equations are singular where it vanishes (GC breakdown); the caller
+ * checks its sign against |B|. */
+static inline GCP_HD double gcp_gc_gamma(double ppar, double mu, double Bmag, double m)
+{
+    const double mc = m * GCP_C_LIGHT;
+    const double a = ppar / mc;
+    return sqrt(1.0 + a * a + 2.0 * mu * Bmag / (mc * GCP_C_LIGHT));
+}
+
+static inline GCP_HD double gcp_gc_rhs(const double B[3], const double G[3][3],
+                                       const double *E, double ppar, double mu, double q,
+                                       double m, double dXdt[3], double *dppar)
+{
+    const double Bm = sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2]);
+    const double iB = 1.0 / Bm;
+    const double b[3] = {B[0] * iB, B[1] * iB, B[2] * iB};
+    double gB[3];
+    for (int j = 0; j < 3; j++) gB[j] = b[0] * G[0][j] + b[1] * G[1][j] + b[2] * G[2][j];
+    const double curlB[3] = {G[2][1] - G[1][2], G[0][2] - G[2][0], G[1][0] - G[0][1]};
+    const double bxg[3] = {b[1] * gB[2] - b[2] * gB[1], b[2] * gB[0] - b[0] * gB[2],
+                           b[0] * gB[1] - b[1] * gB[0]};
+    const double gamma = gcp_gc_gamma(ppar, mu, Bm, m);
+    const double rq = ppar / q;
+    double Bs[3], Es[3];
+    for (int i = 0; i < 3; i++) {
+        Bs[i] = B[i] + rq * (curlB[i] + bxg[i]) * iB;
+        Es[i] = (E ? E[i] : 0.0) - mu / (q * gamma) * gB[i];
+    }
+    const double Bspar = b[0] * Bs[0] + b[1] * Bs[1] + b[2] * Bs[2];
+    const double iBs = 1.0 / Bspar;
+    const double vpar = ppar / (gamma * m);
+    const double Exb[3] = {Es[1] * b[2] - Es[2] * b[1], Es[2] * b[0] - Es[0] * b[2],
+                           Es[0] * b[1] - Es[1] * b[0]};
+    for (int i = 0; i < 3; i++) dXdt[i] = (vpar * Bs[i] + Exb[i]) * iBs;
+    *dppar = q * (Es[0] * Bs[0] + Es[1] * Bs[1] + Es[2] * Bs[2]) * iBs;
+    return Bspar;
 }
 
 #endif /* GCPUSH_KERNELS_H */

@@ -1,0 +1,533 @@
+/* bench_push -- `make bench`: how fast gcpush pushes, against the machine
+ * and against the minimal hand-written loop.  Single core, wall clock, the
+ * best of REPS repetitions of each measurement (the minimum rejects other
+ * processes' interference; it is what the hardware can do).
+ *
+ * Part 1 (issue 2): the library's block stepper, gcp_block_advance_fo with
+ *   the `boris` pusher, in uniform B and in Earth's dipole, resident regime
+ *   (one block pushed many steps per call), against a hand-written fused
+ *   drift-kick-drift Boris loop over the same struct-of-arrays block
+ *   compiled with the same flags.  Reports ns per particle-step, the ratio
+ *   (goal <= 1.5) and particle-steps/s in uniform B (goal >= 1e8 per core).
+ *   The hand loop computes the same thing, operation for operation: the
+ *   program checks that it lands on the library's result bit for bit.
+ *
+ * Part 2 (issue 8): the header-only kernels of kernels.h.
+ *   Streaming regime: N = 1e7 particles, one step per particle per sweep,
+ *   with fields gathered into arrays (the PIC situation).  GB/s moved,
+ *   counting the bytes each pass must read and write (the STREAM
+ *   convention: no write-allocate traffic), against a STREAM triad
+ *   a = b + s c on arrays of the same size measured in the same run
+ *   (goal >= 80%).
+ *   Resident regime: a block that stays in cache, many sweeps: ns per
+ *   particle-step of gcp_push_boris_batch + gcp_drift_batch against the
+ *   hand-written fused kick + drift loop (goal <= 1.1x).
+ *
+ * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests) */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "gcpush/field.h"
+#include "gcpush/kernels.h"
+#include "gcpush/particles.h"
+#include "gcpush/pusher.h"
+#include "block_priv.h" /* src/pushers: gcp_block_classify, for the stepper breakdown */
+
+#define REPS 5
+#define QP 1.602176634e-19     /* proton charge [C] */
+#define MP 1.67262192369e-27   /* proton mass [kg] */
+#define RE GCP_EARTH_RADIUS
+#define INV_C2 (1.0 / (GCP_C_LIGHT * GCP_C_LIGHT))
+
+static double scale = 1.0;
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static uint64_t rng = 0x243F6A8885A308D3ull;
+static double urand(void)
+{
+    uint64_t z = (rng += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static double *dalloc(size_t n)
+{
+    double *p = aligned_alloc(64, ((n * sizeof(double) + 63) / 64) * 64);
+    if (!p) {
+        fprintf(stderr, "bench_push: out of memory\n");
+        exit(1);
+    }
+    memset(p, 0, n * sizeof(double)); /* first touch outside the timings */
+    return p;
+}
+
+static volatile double sink; /* keeps results alive */
+
+/* Every timed sweep is a call the compiler may not inline: inlined into the
+ * sweep loop, GCC -O3 may interchange the loops (-floop-interchange) and make
+ * k sweeps one pass over memory, which would fake the streaming numbers. */
+#define NOINLINE __attribute__((noinline))
+
+/* ---------------------------------------------------------------------------
+ * Scenes.  Uniform: B = 1e-3 T along z, 1 MeV protons, isotropic, dt = 0.05
+ * gyro.  Dipole: 10 MeV protons on the equator at L = 3.5 .. 4.5, pitch
+ * 30 .. 90 deg, dt = 0.05 of the equatorial gyro period at L = 4.
+ * ------------------------------------------------------------------------- */
+enum scene { UNIFORM, DIPOLE };
+static const double B_UNI = 1e-3;
+
+static void init_particles(enum scene sc, size_t n, double *x, double *y, double *z, double *ux,
+                           double *uy, double *uz, double *dt)
+{
+    rng = 0x243F6A8885A308D3ull;
+    const double ek = (sc == UNIFORM ? 1.0 : 10.0) * 1.602176634e-13; /* [J] */
+    const double g = 1.0 + ek / (MP * GCP_C_LIGHT * GCP_C_LIGHT);
+    const double u = GCP_C_LIGHT * sqrt(g * g - 1.0);
+    for (size_t i = 0; i < n; i++) {
+        if (sc == UNIFORM) {
+            const double ct = 2.0 * urand() - 1.0, ph = 2.0 * GCP_PI * urand();
+            const double st = sqrt(1.0 - ct * ct);
+            x[i] = y[i] = z[i] = 0.0;
+            ux[i] = u * st * cos(ph), uy[i] = u * st * sin(ph), uz[i] = u * ct;
+        } else {
+            const double L = 3.5 + urand(), lon = 2.0 * GCP_PI * urand();
+            const double a = (30.0 + 60.0 * urand()) * GCP_PI / 180.0, ph = 2.0 * GCP_PI * urand();
+            x[i] = L * RE * cos(lon), y[i] = L * RE * sin(lon), z[i] = 0.0;
+            /* B is along +z on the equator: u_par along z, u_perp in the plane */
+            ux[i] = u * sin(a) * cos(ph), uy[i] = u * sin(a) * sin(ph), uz[i] = u * cos(a);
+        }
+    }
+    const double B = sc == UNIFORM ? B_UNI : GCP_EARTH_B0 / 64.0;
+    *dt = 0.05 * 2.0 * GCP_PI * g * MP / (QP * B);
+}
+
+/* ---------------------------------------------------------------------------
+ * The hand-written references.  Written as one would by hand for a fixed
+ * scene: fused drift-kick-drift in one loop, the field inline, no status
+ * checks; the operations are those of kernels.h / fields/dipole.c in the
+ * same order, so the result is bit-identical to the library's.
+ * ------------------------------------------------------------------------- */
+static void hand_uniform(size_t n, double *restrict x, double *restrict y, double *restrict z,
+                         double *restrict ux, double *restrict uy, double *restrict uz,
+                         const double B[3], double q, double m, double dt, int64_t nsteps)
+{
+    /* general direction of B (constants in registers), no E: the scene has none */
+    const double h = 0.5 * dt, qdt2m = 0.5 * q * dt / m;
+    const double Bx = B[0], By = B[1], Bz = B[2];
+    for (int64_t k = 0; k < nsteps; k++)
+        for (size_t i = 0; i < n; i++) {
+            double vx = ux[i], vy = uy[i], vz = uz[i];
+            const double hg = h / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+            const double px = x[i] + vx * hg, py = y[i] + vy * hg, pz = z[i] + vz * hg;
+            const double ig = 1.0 / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+            const double tx = qdt2m * ig * Bx, ty = qdt2m * ig * By, tz = qdt2m * ig * Bz;
+            const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
+            const double upx = vx + (vy * tz - vz * ty);
+            const double upy = vy + (vz * tx - vx * tz);
+            const double upz = vz + (vx * ty - vy * tx);
+            vx = vx + s * (upy * tz - upz * ty);
+            vy = vy + s * (upz * tx - upx * tz);
+            vz = vz + s * (upx * ty - upy * tx);
+            const double hg2 = h / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+            x[i] = px + vx * hg2, y[i] = py + vy * hg2, z[i] = pz + vz * hg2;
+            ux[i] = vx, uy[i] = vy, uz[i] = vz;
+        }
+}
+
+static void hand_dipole(size_t n, double *restrict x, double *restrict y, double *restrict z,
+                        double *restrict ux, double *restrict uy, double *restrict uz, double c,
+                        double q, double m, double dt, int64_t nsteps)
+{
+    const double h = 0.5 * dt, qdt2m = 0.5 * q * dt / m;
+    for (int64_t k = 0; k < nsteps; k++)
+        for (size_t i = 0; i < n; i++) {
+            double vx = ux[i], vy = uy[i], vz = uz[i];
+            const double hg = h / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+            const double px = x[i] + vx * hg, py = y[i] + vy * hg, pz = z[i] + vz * hg;
+            double r2 = px * px + py * py + pz * pz;
+            r2 = r2 > 1.0 ? r2 : 1.0;
+            const double c5 = c / (r2 * r2 * sqrt(r2)), m3z = -3.0 * c5 * pz;
+            const double ig = 1.0 / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+            const double tx = qdt2m * ig * (m3z * px), ty = qdt2m * ig * (m3z * py);
+            const double tz = qdt2m * ig * (c5 * (r2 - 3.0 * pz * pz));
+            const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
+            const double upx = vx + (vy * tz - vz * ty);
+            const double upy = vy + (vz * tx - vx * tz);
+            const double upz = vz + (vx * ty - vy * tx);
+            vx = vx + s * (upy * tz - upz * ty);
+            vy = vy + s * (upz * tx - upx * tz);
+            vz = vz + s * (upx * ty - upy * tx);
+            const double hg2 = h / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+            x[i] = px + vx * hg2, y[i] = py + vy * hg2, z[i] = pz + vz * hg2;
+            ux[i] = vx, uy[i] = vy, uz[i] = vz;
+        }
+}
+
+/* ---------------------------------------------------------------------------
+ * Part 1: library block stepper vs hand loop, resident.
+ * ------------------------------------------------------------------------- */
+struct p1_result {
+    double ns_lib, ns_hand;
+    double maxdiff; /* max |library - hand| over x and u after the check run, relative */
+};
+
+static struct p1_result part1(enum scene sc, size_t nb, int64_t total_steps)
+{
+    struct p1_result r = {INFINITY, INFINITY, 0.0};
+    struct gcp_field *f = sc == UNIFORM
+                              ? gcp_field_uniform_create((const double[3]){0, 0, B_UNI},
+                                                         (const double[3]){0, 0, 0})
+                              : gcp_field_dipole_create(GCP_EARTH_B0, 0, RE + 100e3, 15.0 * RE);
+    struct gcp_block b;
+    if (!f || gcp_block_alloc(&b, nb)) {
+        fprintf(stderr, "bench_push: out of memory\n");
+        exit(1);
+    }
+    double *hx = dalloc(nb), *hy = dalloc(nb), *hz = dalloc(nb);
+    double *hux = dalloc(nb), *huy = dalloc(nb), *huz = dalloc(nb);
+    double dt;
+    const int64_t nsteps = (int64_t)fmax(1.0, scale * (double)total_steps / (double)nb);
+    b.q = QP, b.m = MP;
+    const double c = GCP_EARTH_B0 * RE * RE * RE;
+
+    for (int rep = 0; rep < REPS; rep++) {
+        init_particles(sc, nb, b.x, b.y, b.z, b.ux, b.uy, b.uz, &dt);
+        b.n_active = nb;
+        for (size_t i = 0; i < nb; i++) b.status[i] = 0, b.steps[i] = 0, b.index[i] = i;
+        gcp_block_start(&b, f, 0.0);
+        double t0 = now();
+        size_t live = gcp_block_advance_fo(&b, f, &gcp_pusher_boris, 0.0, dt, nsteps, NULL);
+        double t1 = now();
+        if (live != nb) fprintf(stderr, "bench_push: %zu of %zu lanes stopped\n", nb - live, nb);
+        r.ns_lib = fmin(r.ns_lib, 1e9 * (t1 - t0) / ((double)nb * (double)nsteps));
+
+        init_particles(sc, nb, hx, hy, hz, hux, huy, huz, &dt);
+        t0 = now();
+        if (sc == UNIFORM)
+            hand_uniform(nb, hx, hy, hz, hux, huy, huz, (const double[3]){0, 0, B_UNI}, QP, MP, dt,
+                         nsteps);
+        else
+            hand_dipole(nb, hx, hy, hz, hux, huy, huz, c, QP, MP, dt, nsteps);
+        t1 = now();
+        r.ns_hand = fmin(r.ns_hand, 1e9 * (t1 - t0) / ((double)nb * (double)nsteps));
+    }
+    /* Same work?  After the last repetition both pushed the same particles
+     * the same nsteps: compare (lanes were not reordered: none stopped). */
+    for (size_t i = 0; i < nb; i++) {
+        const double lx[6] = {b.x[i], b.y[i], b.z[i], b.ux[i], b.uy[i], b.uz[i]};
+        const double hv[6] = {hx[i], hy[i], hz[i], hux[i], huy[i], huz[i]};
+        const double sx = sqrt(hx[i] * hx[i] + hy[i] * hy[i] + hz[i] * hz[i]) + 1.0;
+        const double su = sqrt(hux[i] * hux[i] + huy[i] * huy[i] + huz[i] * huz[i]);
+        for (int k = 0; k < 6; k++)
+            r.maxdiff = fmax(r.maxdiff, fabs(lx[k] - hv[k]) / (k < 3 ? sx : su));
+    }
+    free(hx), free(hy), free(hz), free(hux), free(huy), free(huz);
+    gcp_block_free(&b);
+    gcp_field_free(f);
+    return r;
+}
+
+/* Where the stepper's time goes: each pass of gcp_block_advance_fo's step
+ * timed on its own over the same resident block (ns per particle-step). */
+static void part1_breakdown(enum scene sc, size_t nb)
+{
+    struct gcp_field *f = sc == UNIFORM
+                              ? gcp_field_uniform_create((const double[3]){0, 0, B_UNI},
+                                                         (const double[3]){0, 0, 0})
+                              : gcp_field_dipole_create(GCP_EARTH_B0, 0, RE + 100e3, 15.0 * RE);
+    struct gcp_block b;
+    if (!f || gcp_block_alloc(&b, nb)) exit(1);
+    double dt;
+    b.q = QP, b.m = MP;
+    init_particles(sc, nb, b.x, b.y, b.z, b.ux, b.uy, b.uz, &dt);
+    gcp_block_start(&b, f, 0.0);
+    const int64_t reps = (int64_t)fmax(1.0, scale * 2e7 / (double)nb);
+    const double h = 0.5 * dt;
+    double best[6];
+    for (int k = 0; k < 6; k++) best[k] = INFINITY;
+    volatile int32_t any = 0;
+    for (int rep = 0; rep < REPS; rep++) {
+        double t[7];
+        t[0] = now();
+        for (int64_t r = 0; r < reps; r++) {
+            gcp_drift_batch(nb, b.x, b.y, b.z, b.ux, b.uy, b.uz, h);
+            gcp_drift_batch(nb, b.x, b.y, b.z, b.ux, b.uy, b.uz, -h); /* undo: same cost */
+        }
+        t[1] = now();
+        for (int64_t r = 0; r < reps; r++) {
+            memset(b.fstatus, 0, nb * sizeof(int32_t));
+            __asm__ volatile("" ::: "memory");
+        }
+        t[2] = now();
+        for (int64_t r = 0; r < reps; r++)
+            f->type->eval_block(f, 0.0, nb, b.x, b.y, b.z, b.Bx, b.By, b.Bz, NULL, NULL, NULL,
+                                b.fstatus);
+        t[3] = now();
+        for (int64_t r = 0; r < reps; r++)
+            gcp_pusher_boris.kick(nb, b.ux, b.uy, b.uz, b.Ex, b.Ey, b.Ez, b.Bx, b.By, b.Bz, b.q,
+                                  b.m, r & 1 ? -dt : dt);
+        t[4] = now();
+        for (int64_t r = 0; r < reps; r++) any |= gcp_block_classify(&b, nb, f, 0);
+        t[5] = now();
+        for (int k = 0; k < 5; k++)
+            best[k] = fmin(best[k], 1e9 * (t[k + 1] - t[k]) / ((double)reps * (double)nb));
+    }
+    printf("  %-9s %6zu %9.2f %9.2f %9.2f %9.2f %9.2f %9.2f\n",
+           sc == UNIFORM ? "uniform" : "dipole", nb, best[0], best[1], best[2], best[3], best[4],
+           best[0] + best[1] + best[2] + best[3] + best[4]);
+    gcp_block_free(&b);
+    gcp_field_free(f);
+}
+
+/* ---------------------------------------------------------------------------
+ * Part 2: kernels.h, streaming and resident.
+ * ------------------------------------------------------------------------- */
+struct soa {
+    size_t n;
+    double *x, *y, *z, *ux, *uy, *uz, *Ex, *Ey, *Ez, *Bx, *By, *Bz;
+};
+
+static void soa_alloc(struct soa *s, size_t n)
+{
+    s->n = n;
+    double **a[] = {&s->x, &s->y, &s->z, &s->ux, &s->uy, &s->uz,
+                    &s->Ex, &s->Ey, &s->Ez, &s->Bx, &s->By, &s->Bz};
+    for (size_t k = 0; k < 12; k++) *a[k] = dalloc(n);
+    double dt;
+    init_particles(UNIFORM, n, s->x, s->y, s->z, s->ux, s->uy, s->uz, &dt);
+    for (size_t i = 0; i < n; i++) { /* gathered fields: a little E, B along z with noise */
+        s->Ex[i] = 1e3 * (urand() - 0.5), s->Ey[i] = 1e3 * (urand() - 0.5), s->Ez[i] = 0.0;
+        s->Bx[i] = 1e-5 * (urand() - 0.5), s->By[i] = 1e-5 * (urand() - 0.5), s->Bz[i] = B_UNI;
+    }
+}
+
+static void soa_free(struct soa *s)
+{
+    double *a[] = {s->x, s->y, s->z, s->ux, s->uy, s->uz, s->Ex, s->Ey, s->Ez, s->Bx, s->By, s->Bz};
+    for (size_t k = 0; k < 12; k++) free(a[k]);
+}
+
+/* STREAM triad, a = b + s c: 24 bytes per element. */
+static NOINLINE void triad(size_t n, double *restrict a, const double *restrict b,
+                  const double *restrict c, double s)
+{
+    for (size_t i = 0; i < n; i++) a[i] = b[i] + s * c[i];
+}
+
+/* One PIC step with the kernels: kick (reads u, E, B; writes u) then
+ * position x += u/gamma dt (reads x, u; writes x). */
+static NOINLINE void kernels_step(struct soa *s, double dt)
+{
+    gcp_push_boris_batch(s->n, s->ux, s->uy, s->uz, s->Ex, s->Ey, s->Ez, s->Bx, s->By, s->Bz, QP,
+                         MP, dt);
+    gcp_drift_batch(s->n, s->x, s->y, s->z, s->ux, s->uy, s->uz, dt);
+}
+
+static NOINLINE void kick_only(struct soa *s, double dt)
+{
+    gcp_push_boris_batch(s->n, s->ux, s->uy, s->uz, s->Ex, s->Ey, s->Ez, s->Bx, s->By, s->Bz, QP,
+                         MP, dt);
+}
+
+/* The same step written by hand, fused (reads x, u, E, B; writes x, u). */
+static void hand_step(size_t n, double *restrict x, double *restrict y, double *restrict z,
+                      double *restrict ux, double *restrict uy, double *restrict uz,
+                      const double *restrict Ex, const double *restrict Ey,
+                      const double *restrict Ez, const double *restrict Bx,
+                      const double *restrict By, const double *restrict Bz, double q, double m,
+                      double dt)
+{
+    const double a = 0.5 * q * dt / m;
+    for (size_t i = 0; i < n; i++) {
+        const double ex = a * Ex[i], ey = a * Ey[i], ez = a * Ez[i];
+        const double mx = ux[i] + ex, my = uy[i] + ey, mz = uz[i] + ez;
+        const double ig = a / sqrt(1.0 + (mx * mx + my * my + mz * mz) * INV_C2);
+        const double tx = ig * Bx[i], ty = ig * By[i], tz = ig * Bz[i];
+        const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
+        const double px = mx + (my * tz - mz * ty);
+        const double py = my + (mz * tx - mx * tz);
+        const double pz = mz + (mx * ty - my * tx);
+        const double vx = mx + s * (py * tz - pz * ty) + ex;
+        const double vy = my + s * (pz * tx - px * tz) + ey;
+        const double vz = mz + s * (px * ty - py * tx) + ez;
+        const double hg = dt / sqrt(1.0 + (vx * vx + vy * vy + vz * vz) * INV_C2);
+        x[i] += vx * hg, y[i] += vy * hg, z[i] += vz * hg;
+        ux[i] = vx, uy[i] = vy, uz[i] = vz;
+    }
+}
+
+static NOINLINE void hand_step_soa(struct soa *s, double dt)
+{
+    hand_step(s->n, s->x, s->y, s->z, s->ux, s->uy, s->uz, s->Ex, s->Ey, s->Ez, s->Bx, s->By,
+              s->Bz, QP, MP, dt);
+}
+
+static NOINLINE void aos_step(struct gcp_particle_aos *p, const struct soa *f, size_t n, double dt)
+{
+    gcp_push_boris_aos(n, p, f->Ex, f->Ey, f->Ez, f->Bx, f->By, f->Bz, QP, MP, dt);
+    gcp_drift_aos(n, p, dt);
+}
+
+/* Library stepper, one step per call over a big block (streaming). */
+static double lib_stream(size_t n)
+{
+    struct gcp_field *f = gcp_field_uniform_create((const double[3]){0, 0, B_UNI},
+                                                   (const double[3]){0, 0, 0});
+    struct gcp_block b;
+    if (!f || gcp_block_alloc(&b, n)) {
+        fprintf(stderr, "bench_push: out of memory\n");
+        exit(1);
+    }
+    double dt;
+    b.q = QP, b.m = MP;
+    init_particles(UNIFORM, n, b.x, b.y, b.z, b.ux, b.uy, b.uz, &dt);
+    gcp_block_start(&b, f, 0.0);
+    double best = INFINITY;
+    for (int rep = 0; rep < REPS; rep++) {
+        const double t0 = now();
+        gcp_block_advance_fo(&b, f, &gcp_pusher_boris, rep * dt, dt, 1, NULL);
+        best = fmin(best, now() - t0);
+    }
+    gcp_block_free(&b);
+    gcp_field_free(f);
+    return best;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc > 1) scale = atof(argv[1]);
+    if (!(scale > 0.0)) scale = 1.0;
+    printf("gcpush bench: single core, best of %d, wall clock (scale %g)\n\n", REPS, scale);
+
+    /* ---------------- Part 1 ---------------- */
+    printf("Issue 2: library block stepper (gcp_block_advance_fo, boris), resident regime\n");
+    printf("  %-9s %6s %12s %12s %8s %13s %10s\n", "field", "block", "library", "hand loop",
+           "ratio", "lib steps/s", "lib==hand");
+    printf("  %-9s %6s %12s %12s %8s %13s %10s\n", "", "lanes", "[ns/step]", "[ns/step]",
+           "(<=1.5)", "(>=1e8 unif)", "[rel]");
+    const size_t blocks[] = {64, 1024};
+    double uni_rate = 0.0;
+    for (int sc = UNIFORM; sc <= DIPOLE; sc++)
+        for (size_t k = 0; k < 2; k++) {
+            const struct p1_result r = part1((enum scene)sc, blocks[k], 100000000);
+            if (sc == UNIFORM) uni_rate = fmax(uni_rate, 1e9 / r.ns_lib);
+            printf("  %-9s %6zu %12.2f %12.2f %8.2f %13.3g %10.1e\n",
+                   sc == UNIFORM ? "uniform" : "dipole", blocks[k], r.ns_lib, r.ns_hand,
+                   r.ns_lib / r.ns_hand, 1e9 / r.ns_lib, r.maxdiff);
+        }
+    printf("  uniform B: %.3g particle-steps/s per core (goal >= 1e8; TestParticle.jl 1.08e8)\n\n",
+           uni_rate);
+    printf("  where the library's step goes [ns/particle-step], each pass timed alone:\n");
+    printf("  %-9s %6s %9s %9s %9s %9s %9s %9s\n", "field", "lanes", "2 drifts", "memset",
+           "field", "kick", "classify", "sum");
+    for (int sc = UNIFORM; sc <= DIPOLE; sc++) part1_breakdown((enum scene)sc, 1024);
+    printf("\n");
+
+    /* ---------------- Part 2: streaming ---------------- */
+    const size_t N = (size_t)fmax(1e5, 1e7 * fmin(scale, 1.0));
+    struct soa s;
+    soa_alloc(&s, N);
+    const int sweeps = 3;
+    double dt;
+    init_particles(UNIFORM, 1, s.x, s.y, s.z, s.ux, s.uy, s.uz, &dt);
+    dt *= 1e-3;
+    /* AoS copy of the same particles */
+    struct gcp_particle_aos *pa = aligned_alloc(64, N * sizeof *pa);
+    if (!pa) return 1;
+    for (size_t i = 0; i < N; i++)
+        pa[i] = (struct gcp_particle_aos){s.x[i], s.y[i], s.z[i], s.ux[i], s.uy[i], s.uz[i]};
+    /* Interleaved: every repetition times the triad and each kernel back to
+     * back, so a neighbour's load hits all of them alike; best of REPS each.
+     * The triad runs over three arrays of N doubles (scratch: a copy of Ez). */
+    double *ta = dalloc(N);
+    double t_triad = INFINITY, t_kick_only = INFINITY, t_kick = INFINITY, t_hand = INFINITY;
+    double t_aos = INFINITY;
+    for (int rep = 0; rep < REPS; rep++) {
+        double t0 = now();
+        for (int k = 0; k < sweeps; k++) triad(N, ta, s.Ex, s.Ey, 1.0 + 1e-9 * k);
+        double t1 = now();
+        t_triad = fmin(t_triad, (t1 - t0) / sweeps);
+        for (int k = 0; k < sweeps; k++) kick_only(&s, dt);
+        t0 = now();
+        t_kick_only = fmin(t_kick_only, (t0 - t1) / sweeps);
+        for (int k = 0; k < sweeps; k++) kernels_step(&s, dt);
+        t1 = now();
+        t_kick = fmin(t_kick, (t1 - t0) / sweeps);
+        for (int k = 0; k < sweeps; k++) hand_step_soa(&s, dt);
+        t0 = now();
+        t_hand = fmin(t_hand, (t0 - t1) / sweeps);
+        for (int k = 0; k < sweeps; k++) aos_step(pa, &s, N, dt);
+        t1 = now();
+        t_aos = fmin(t_aos, (t1 - t0) / sweeps);
+    }
+    const double gb_triad = 24.0 * (double)N / t_triad * 1e-9;
+    sink = ta[N / 2] + s.x[N / 3];
+    free(ta);
+    sink = pa[N / 2].x;
+    free(pa);
+    soa_free(&s);
+    const double t_lib = lib_stream(N);
+
+    printf("Issue 8: kernels.h, streaming regime (%zu particles, one step per particle per sweep)\n",
+           N);
+    printf("  %-44s %9s %9s %9s %10s\n", "", "bytes", "ns per", "GB/s", "of triad");
+    printf("  %-44s %9s %9s %9s %10s\n", "", "/particle", "particle", "", "(>=0.80)");
+    const double nN = (double)N;
+#define ROW(name, bytes, t)                                                                     \
+    printf("  %-44s %9.0f %9.3f %9.2f %10.2f\n", name, (double)(bytes), 1e9 * (t) / nN,     \
+           (bytes) * nN / (t) * 1e-9, (bytes) * nN / (t) * 1e-9 / gb_triad)
+    ROW("STREAM triad a = b + s c (24 B/element)", 24, t_triad);
+    /* kick: read u, E, B (9 doubles), write u (3) */
+    ROW("gcp_push_boris_batch", 96, t_kick_only);
+    /* + drift: read x, u (6), write x (3) */
+    ROW("gcp_push_boris_batch + gcp_drift_batch", 96 + 72, t_kick);
+    /* fused: read x, u, E, B (12), write x, u (6) */
+    ROW("hand-fused kick + drift", 144, t_hand);
+    /* AoS: kick reads/writes the 48-B struct lines and reads E, B; drift again */
+    ROW("gcp_push_boris_aos + gcp_drift_aos", 48 + 48 + 48 + 96, t_aos);
+    /* stepper, uniform B: x, u read+written is the minimum (96 B); counted so */
+    ROW("library stepper, 1 step/call (min. 96 B)", 96, t_lib);
+#undef ROW
+    printf("  (bytes: what each pass must read + write, STREAM convention; the library stepper\n"
+           "   row counts only the 96 B a uniform-B step needs, so it shows its overhead)\n\n");
+
+    /* ---------------- Part 2: resident ---------------- */
+    printf("Issue 8: kernels.h, resident regime (block in cache, many sweeps)\n");
+    printf("  %6s %22s %22s %8s\n", "block", "batch kick+drift", "hand-fused", "ratio");
+    printf("  %6s %22s %22s %8s\n", "lanes", "[ns/particle-step]", "[ns/particle-step]",
+           "(<=1.1)");
+    const size_t rblocks[] = {256, 4096};
+    for (size_t k = 0; k < 2; k++) {
+        struct soa r;
+        soa_alloc(&r, rblocks[k]);
+        const int sw = (int)fmax(1.0, scale * 1e8 / (double)rblocks[k]);
+        double tk = INFINITY, th = INFINITY;
+        for (int rep = 0; rep < REPS; rep++) { /* interleaved, best of REPS */
+            double t0 = now();
+            for (int k = 0; k < sw; k++) kernels_step(&r, dt);
+            double t1 = now();
+            for (int k = 0; k < sw; k++) hand_step_soa(&r, dt);
+            tk = fmin(tk, (t1 - t0) / sw);
+            th = fmin(th, (now() - t1) / sw);
+        }
+        sink = r.x[0];
+        printf("  %6zu %22.3f %22.3f %8.2f\n", rblocks[k], 1e9 * tk / (double)rblocks[k],
+               1e9 * th / (double)rblocks[k], tk / th);
+        soa_free(&r);
+    }
+    printf("\nCUDA: kernels.h compiles under nvcc (tests/cli/test_kernels_compile.sh); no GPU here,\n"
+           "so no device particle-steps/s.\n");
+    return 0;
+}
