@@ -95,6 +95,7 @@ struct gcp_block {
     /* scratch for gathered fields, n entries each (owned by the block) */
     double *Bx, *By, *Bz, *Ex, *Ey, *Ez;
     int32_t *fstatus;
+    double *hg;          /* [s] (dt/2) / gamma of each live lane, kept between half drifts */
 };
 
 /* Allocates a block of n lanes (all arrays; index[i] = i). */

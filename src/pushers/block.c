@@ -1,5 +1,6 @@
 /* Block lane management shared by every pusher: allocation, lane swaps,
  * the per-step status classification and the retirement of stopped lanes. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,7 +15,7 @@ int gcp_block_alloc(struct gcp_block *b, size_t n)
     memset(b, 0, sizeof *b);
     size_t m = n ? n : 1;
     double **d[] = {&b->x, &b->y, &b->z, &b->ux, &b->uy, &b->uz, &b->ppar, &b->mu, &b->t,
-                    &b->Bx, &b->By, &b->Bz, &b->Ex, &b->Ey, &b->Ez};
+                    &b->Bx, &b->By, &b->Bz, &b->Ex, &b->Ey, &b->Ez, &b->hg};
     int fail = 0;
     for (size_t k = 0; k < sizeof d / sizeof d[0]; k++) fail |= !(*d[k] = calloc(m, sizeof(double)));
     fail |= !(b->status = calloc(m, sizeof(int32_t)));
@@ -33,7 +34,7 @@ int gcp_block_alloc(struct gcp_block *b, size_t n)
 void gcp_block_free(struct gcp_block *b)
 {
     double *d[] = {b->x, b->y, b->z, b->ux, b->uy, b->uz, b->ppar, b->mu, b->t,
-                   b->Bx, b->By, b->Bz, b->Ex, b->Ey, b->Ez};
+                   b->Bx, b->By, b->Bz, b->Ex, b->Ey, b->Ez, b->hg};
     for (size_t k = 0; k < sizeof d / sizeof d[0]; k++) free(d[k]);
     free(b->status);
     free(b->fstatus);
@@ -64,25 +65,46 @@ void gcp_block_swap_lanes(struct gcp_block *b, size_t i, size_t j)
  * NONFINITE beats the field's own verdict (LEFT_GRID, LEFT_DOMAIN), which
  * beats PRECIPITATED (|x| < r_inner) and LEFT_DOMAIN (|x| > r_outer or
  * |z| > z_max).  Returns non-zero when any lane stopped. */
+/* The status of one lane from r^2, |momentum|^2 (any finite measure of it),
+ * z and the field's own verdict fs0, as arithmetic selects so the loops
+ * below vectorise.  NONFINITE > field verdict > PRECIPITATED > LEFT_DOMAIN.
+ * !(|a| <= DBL_MAX) is true for NaN and Inf without a call. */
+static inline int32_t lane_status(double r2, double p2, double z, int32_t fs0, double rin2,
+                                  double rout2, double zmax)
+{
+    const int32_t nonfinite = !(fabs(r2 + p2) <= DBL_MAX);
+    const int32_t below = r2 < rin2;
+    const int32_t outside = (r2 > rout2) | (fabs(z) > zmax);
+    const int32_t geo = below * GCP_PRECIPITATED + (1 - below) * outside * GCP_LEFT_DOMAIN;
+    const int32_t fs = fs0 + (fs0 == 0) * geo;
+    return nonfinite * GCP_NONFINITE + (1 - nonfinite) * fs;
+}
+
 int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field *f, int gc)
 {
     const double rin2 = f->r_inner * f->r_inner;
     const double rout2 = f->r_outer * f->r_outer; /* inf stays inf */
     const double zmax = f->z_max;
+    const double *restrict x = b->x, *restrict y = b->y, *restrict z = b->z;
+    const int32_t *restrict fs = b->fstatus;
+    int32_t *restrict st = b->status;
     int32_t any = 0;
-    for (size_t i = 0; i < n; i++) {
-        const double r2 = b->x[i] * b->x[i] + b->y[i] * b->y[i] + b->z[i] * b->z[i];
-        /* full orbit: u; guiding centre: p_par and mu (chosen per call, not per lane) */
-        const double u2 = gc ? b->ppar[i] * b->ppar[i] + b->mu[i]
-                             : b->ux[i] * b->ux[i] + b->uy[i] * b->uy[i] + b->uz[i] * b->uz[i];
-        const int32_t nonfinite = !isfinite(r2 + u2);
-        const int32_t below = r2 < rin2;
-        const int32_t outside = (r2 > rout2) | (fabs(b->z[i]) > zmax);
-        const int32_t geo = below ? GCP_PRECIPITATED : outside * GCP_LEFT_DOMAIN;
-        const int32_t fs = b->fstatus[i] ? b->fstatus[i] : geo;
-        const int32_t s = nonfinite ? GCP_NONFINITE : fs;
-        b->status[i] = s;
-        any |= s;
+    /* full orbit: u; guiding centre: p_par and mu -- chosen once, not per lane */
+    if (gc) {
+        const double *restrict pp = b->ppar, *restrict mu = b->mu;
+        for (size_t i = 0; i < n; i++) {
+            const double r2 = x[i] * x[i] + y[i] * y[i] + z[i] * z[i];
+            st[i] = lane_status(r2, pp[i] * pp[i] + mu[i], z[i], fs[i], rin2, rout2, zmax);
+            any |= st[i];
+        }
+    } else {
+        const double *restrict ux = b->ux, *restrict uy = b->uy, *restrict uz = b->uz;
+        for (size_t i = 0; i < n; i++) {
+            const double r2 = x[i] * x[i] + y[i] * y[i] + z[i] * z[i];
+            const double u2 = ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i];
+            st[i] = lane_status(r2, u2, z[i], fs[i], rin2, rout2, zmax);
+            any |= st[i];
+        }
     }
     return any;
 }

@@ -1,0 +1,36 @@
+/* Private to the guiding-centre pushers (src/pushers/gc_*.c). */
+#ifndef GCPUSH_GC_PRIV_H
+#define GCPUSH_GC_PRIV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gcpush/field.h"
+#include "gcpush/gc.h"
+#include "gcpush/pusher.h"
+
+/* What a GC evaluation needs from the field. */
+static inline unsigned gc_need(const struct gcp_field *f)
+{
+    return GCP_NEED_B | GCP_NEED_GRADB | (f->has_E ? GCP_NEED_E : 0u);
+}
+
+/* Adiabaticity measure (see gcp_gc_adiabaticity) from one field sample. */
+double gcp_gc_adiabaticity_sample(const struct gcp_field_sample *s, double ppar, double mu, double q,
+                              double m);
+
+/* One GC evaluation at (t, X, ppar): field, right-hand side, and the
+ * validity check.  Returns 0, the field's status, GCP_NONFINITE for a
+ * non-finite right-hand side, or GCP_NONADIABATIC when B*_par <= 0 or
+ * (amax > 0 and) the adiabaticity exceeds amax.  dX, dp are always written. */
+int gcp_gc_eval(const struct gcp_field *f, double t, double q, double m, const double X[3],
+            double ppar, double mu, double amax, double dX[3], double *dp);
+
+/* Common start of every GC advance: checks the options (dt > 0 and finite,
+ * nsteps >= 0: otherwise every live lane gets STEP_FAILED) and classifies
+ * the live lanes (non-finite X, p_par, mu; the field's domain; adiabaticity
+ * when amax > 0), retiring stopped ones at t0 with 0 steps.  Returns the
+ * live lane count (b->n_active updated). */
+size_t gcp_gc_block_begin(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o);
+
+#endif
