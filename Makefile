@@ -57,7 +57,8 @@ $(FUZZER): $(FUZZ_SRC) $(wildcard include/gcpush/*.h src/*/*.h fields/*.h)
 
 LIBA     := $(BUILD)/libgcpush.a
 LIBSO    := $(BUILD)/libgcpush.so
-BIN      := bin/gcpush
+# The debug binary lives apart, so DEBUG=1 and normal builds never mix.
+BIN      := $(if $(filter 1,$(DEBUG)),$(BUILD)/gcpush,bin/gcpush)
 UNIT     := $(BUILD)/test_unit
 PY       := /usr/bin/python3
 
@@ -87,7 +88,12 @@ deps:
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 
-build: $(LIBA) $(LIBSO) $(BIN) gcpush.pc
+build: $(LIBA) $(LIBSO) $(BIN) gcpush.pc fields/data/dipole.h5
+
+# The dipole as a gridded field (2D R-Z, 0.05 R_E), sampled by gcpush itself.
+fields/data/dipole.h5: runs/grid-dipole.run $(BIN)
+	@echo "  GRID  $@"
+	@./$(BIN) grid runs/grid-dipole.run > /dev/null
 
 $(BUILD)/%.o: %.c $(wildcard include/gcpush/*.h src/*.h src/*/*.h fields/*.h)
 	@mkdir -p $(dir $@)
@@ -102,7 +108,7 @@ $(LIBSO): $(LIB_OBJ)
 	@echo "  LD    $@"; $(CC) -shared -o $@ $^ $(OPTFLAGS) $(LDLIBS)
 
 $(BIN): $(BUILD)/src/gcpush.o $(LIBA)
-	@mkdir -p bin
+	@mkdir -p $(dir $@)
 	$(CC) $(OPTFLAGS) -o $@ $^ $(LDLIBS)
 
 gcpush.pc: Makefile
@@ -124,7 +130,7 @@ check: deps
 
 check-built: build $(UNIT) $(FUZZER)
 	$(UNIT) --jobs=$(JOBS)
-	BUILD=$(BUILD) PY=$(PY) sh tests/cli/run_all.sh
+	BUILD=$(BUILD) PY=$(PY) GCPUSH=$(CURDIR)/$(BIN) sh tests/cli/run_all.sh
 	@$(MAKE) --no-print-directory fuzz-run FUZZ_SECONDS=20
 
 fuzz: deps

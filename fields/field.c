@@ -11,6 +11,7 @@
 
 #include "field_priv.h"
 #include "gcpush/particles.h"
+#include "grid_priv.h"
 
 /* Models a run file may name, with their readers.  The callback model is
  * absent on purpose: a function pointer cannot come from a run file. */
@@ -22,15 +23,18 @@ static const struct {
     {&gcp_field_mirror, gcp_field_mirror_from_section},
     {&gcp_field_dipole, gcp_field_dipole_from_section},
     {&gcp_field_tokamak, gcp_field_tokamak_from_section},
+    {&gcp_field_grid, gcp_field_grid_from_section}, {&gcp_field_eqdsk, gcp_field_eqdsk_from_section},
+    {&gcp_field_igrf, gcp_field_igrf_from_section},
 };
 #define N_MODELS (sizeof models / sizeof models[0])
 
 /* Kept in step with `models` (a static initialiser cannot read models[i].type). */
 static const struct gcp_field_type *const type_list[N_MODELS + 1] = {
-    &gcp_field_uniform, &gcp_field_mirror, &gcp_field_dipole, &gcp_field_tokamak, NULL};
+    &gcp_field_uniform, &gcp_field_mirror, &gcp_field_dipole, &gcp_field_tokamak,
+    &gcp_field_grid, &gcp_field_eqdsk, &gcp_field_igrf, NULL};
 
 /* For messages: the names in `models`, space separated. */
-#define MODEL_NAMES "uniform mirror dipole tokamak"
+#define MODEL_NAMES "uniform mirror dipole tokamak grid eqdsk igrf"
 
 const struct gcp_field_type *const *gcp_field_types(void) { return type_list; }
 

@@ -44,6 +44,7 @@ static void usage(FILE *to)
             "usage: gcpush [--quiet] FILE.run     run a scene, write its HDF5 output\n"
             "       gcpush --check FILE.run       validate a run file without running it\n"
             "       gcpush --restart OUT.h5       continue an interrupted run from its checkpoints\n"
+            "       gcpush grid FILE.run          sample a field onto a grid file (fields/README.md)\n"
             "       gcpush --help | --version\n"
             "under MPI: mpirun -np N gcpush FILE.run (one output file, same result for any N)\n\n");
     fprintf(to, "fields:");
@@ -221,6 +222,18 @@ int main(int argc, char **argv)
 
     int check = 0, quiet = 0, restart = 0;
     const char *arg = NULL;
+    if (argc == 3 && strcmp(argv[1], "grid") == 0) {
+        struct gcp_error gerr = {0};
+        char out[1024];
+        int grc = me == 0 ? gcp_grid_command(argv[2], out, sizeof out, &gerr) : 0;
+        MPI_Bcast(&grc, 1, MPI_INT, 0, comm);
+        if (me == 0) {
+            if (grc) fprintf(stderr, "gcpush: %s\n", gerr.msg);
+            else printf("grid: %s\n", out);
+        }
+        MPI_Finalize();
+        return grc ? EXIT_BAD_INPUT : 0;
+    }
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             if (me == 0) usage(stdout);

@@ -97,6 +97,11 @@ int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, dou
  * field f: gyro 2 pi gamma m / (|q| B) anywhere; bounce and drift in the
  * dipole from guiding-centre theory.  Returns 0 or GCP_ERR_STATE when the
  * field has no such period. */
+/* `gcpush grid FILE.run`: samples the file's [scene] field with its [field]
+ * keys onto the grid of its [grid] section; the grid file's path is copied
+ * to out.  0, or a negative code with err set (no file left on failure). */
+int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err);
+
 int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp_species *sp,
                   const double x[3], const double u[3], enum gcp_period which, double *period);
 

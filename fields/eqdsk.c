@@ -1,0 +1,452 @@
+/* The `eqdsk` field model: a tokamak equilibrium from a G-EQDSK file.
+ *
+ * Format (EFIT g-file; gafusion/EFIT docs/files.rst): line 1 is 48
+ * characters of text then `idum nw nh`; then Fortran records written with
+ * format (5e16.9): 20 header reals
+ *   rdim zdim rcentr rleft zmid / rmaxis zmaxis simag sibry bcentr /
+ *   current simag xdum rmaxis xdum / zmaxis xdum sibry xdum xdum,
+ * then fpol(nw), pres(nw), ffprim(nw), pprime(nw), psirz(nw*nh) (R fastest,
+ * Z from zmid - zdim/2 up), qpsi(nw), each array starting on a new line;
+ * then `nbbbs limitr` and the boundary and limiter (R, Z) pairs.  Numbers are
+ * read as fixed 16-character fields: negative numbers may run together
+ * ("-1.0e+00-2.0e+00"), so splitting on white space would be wrong.
+ *
+ * Field.  psi(R, Z) is the interpolating bicubic B-spline of psirz (C2,
+ * grid_priv.h); F = R B_phi is the cubic spline of fpol on the uniform psi
+ * grid simag .. sibry, evaluated at psi_N = (psi - simag)/(sibry - simag);
+ * outside the plasma (psi_N > 1, or Z outside the Z range of the boundary
+ * polygon: the private-flux region below an X-point also has psi_N < 1) F
+ * is the boundary value fpol(nw), the vacuum R B_phi.  B is continuous
+ * there; grad B jumps with F' (the edge current), as it physically does.
+ *
+ * Signs (COCOS, Sauter & Medvedev, Comput. Phys. Commun. 184 (2013) 293).
+ * For psi in Wb/rad (COCOS 1..8), with sigma_Bp, sigma_RphiZ, sigma_rhothetaphi
+ * of the file's convention:
+ *   B_pol = sigma_Bp grad(phi_f) x grad(psi),  B_phi_f = F / R,
+ * where phi_f is the file's toroidal angle: phi_f = phi (gcpush's
+ * right-handed (R, phi, Z), phi = atan2(y, x)) when sigma_RphiZ = +1 and
+ * phi_f = -phi when -1.  In gcpush's frame, with grad(phi) x Rhat = -Zhat/R
+ * and grad(phi) x Zhat = Rhat/R:
+ *   B_R = -s_pol (1/R) dpsi/dZ,  B_Z = s_pol (1/R) dpsi/dR,  B_phi = s_tor F/R,
+ *   s_pol = -sigma_Bp sigma_RphiZ,  s_tor = sigma_RphiZ.
+ * Identification from the file (when no `cocos` key is given): the
+ * g-file is taken to be written in a right-handed (R, phi, Z)
+ * (sigma_RphiZ = +1, odd COCOS, as EFIT writes it), and
+ *   sign(sibry - simag) = sigma_Ip sigma_Bp,
+ *   sign(q) = sigma_Ip sigma_B0 sigma_rhothetaphi,
+ * with sigma_Ip = sign(current), sigma_B0 = sign(bcentr).  The shipped
+ * DIII-D file (current < 0, bcentr < 0, psi increasing, q > 0) gives
+ * sigma_Bp = -1, sigma_rhothetaphi = +1: COCOS 7, i.e.
+ *   B_R = -(1/R) dpsi/dZ,  B_Z = +(1/R) dpsi/dR,  B_phi = fpol/R.
+ * gcp_field_psi returns s_pol psi_file: gcpush's psi = R A_phi, so that
+ * p_phi = q psi + m R u_phi is the conserved canonical momentum.
+ */
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "field_priv.h"
+#include "gcpush/particles.h"
+#include "grid_priv.h"
+
+struct eqdsk_params {
+    struct gcp_spl psi;   /* psirz, 2D (R, Z) */
+    struct gcp_spl prof;  /* 1D on u = psi_N (nw - 1): 0 fpol, 1 qpsi, 2 pres */
+    struct gcp_eqdsk_info info;
+    double s_pol, s_tor;  /* sign factors above */
+    double dpsi;          /* [Wb/rad] sibry - simag */
+    double F_edge;        /* [T m] fpol(nw) */
+    double Rmin;          /* [m] floor of R */
+};
+
+static void eqdsk_destroy(void *p)
+{
+    struct eqdsk_params *e = p;
+    if (!e) return;
+    gcp_spl_free(&e->psi);
+    gcp_spl_free(&e->prof);
+    free(e);
+}
+
+/* ---- reading ------------------------------------------------------------- */
+
+struct reader {
+    const char *path;
+    char *text;     /* whole file */
+    char *pos;      /* start of the next line */
+    int line;       /* number of the next line (1-based) */
+};
+
+/* Next line: returns its start, NUL-terminates it (drops "\r\n"), or NULL. */
+static char *next_line(struct reader *r, size_t *len)
+{
+    if (!r->pos || !*r->pos) return NULL;
+    char *s = r->pos, *e = strchr(s, '\n');
+    if (e) {
+        *e = '\0';
+        r->pos = e + 1;
+    } else {
+        r->pos = s + strlen(s);
+    }
+    size_t n = strlen(s);
+    while (n > 0 && (s[n - 1] == '\r' || s[n - 1] == ' ' || s[n - 1] == '\t')) s[--n] = '\0';
+    *len = n;
+    r->line++;
+    return s;
+}
+
+/* Reads n reals as Fortran (5e16.9): starting on a new line, 16-character
+ * fields, 5 per line. */
+static int read_reals(struct reader *r, size_t n, double *v, const char *what,
+                      struct gcp_error *err)
+{
+    size_t k = 0;
+    while (k < n) {
+        size_t len;
+        char *s = next_line(r, &len);
+        if (!s)
+            return gcp_error_set(err, GCP_ERR_VALUE,
+                                 "%s: end of file while reading %s (%zu of %zu values)", r->path,
+                                 what, k, n);
+        const size_t want = n - k < 5 ? n - k : 5;
+        for (size_t j = 0; j < want; j++) {
+            char fld[17];
+            const size_t off = 16 * j;
+            if (off >= len)
+                return gcp_error_set(err, GCP_ERR_VALUE,
+                                     "%s:%d: %s: expected %zu numbers of 16 characters on this "
+                                     "line, found %zu",
+                                     r->path, r->line, what, want, j);
+            size_t w = len - off < 16 ? len - off : 16;
+            memcpy(fld, s + off, w);
+            fld[w] = '\0';
+            /* Fortran D exponents */
+            for (size_t c = 0; c < w; c++)
+                if (fld[c] == 'D' || fld[c] == 'd') fld[c] = 'e';
+            char *end;
+            errno = 0;
+            const double x = strtod(fld, &end);
+            while (*end == ' ') end++;
+            if (end == fld || *end != '\0' || !isfinite(x))
+                return gcp_error_set(err, GCP_ERR_VALUE,
+                                     "%s:%d: %s: cannot read a number from columns %zu-%zu "
+                                     "('%s')",
+                                     r->path, r->line, what, off + 1, off + w, fld);
+            v[k++] = x;
+        }
+    }
+    return 0;
+}
+
+static int read_file(const char *path, char **out, struct gcp_error *err)
+{
+    FILE *fp = fopen(path, "rb");
+    if (!fp) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot open g-file (no such file?)", path);
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        if (n + 4096 + 1 > cap) {
+            char *nb = realloc(buf, cap *= 2);
+            if (!nb) {
+                free(buf);
+                buf = NULL;
+                break;
+            }
+            buf = nb;
+        }
+        size_t got = fread(buf + n, 1, 4096, fp);
+        n += got;
+        if (got == 0) break;
+    }
+    fclose(fp);
+    if (!buf) return gcp_error_set(err, GCP_ERR_NOMEM, "%s: out of memory", path);
+    buf[n] = '\0';
+    *out = buf;
+    return 0;
+}
+
+int gcp_field_eqdsk_load(const char *path, int cocos, struct gcp_field **out,
+                         struct gcp_error *err)
+{
+    *out = NULL;
+    if (cocos < 0 || cocos > 8)
+        return gcp_error_set(err, GCP_ERR_VALUE, "eqdsk: cocos must be 1..8 (or 0: identify), "
+                             "got %d", cocos);
+    struct reader r = {path, NULL, NULL, 0};
+    int rc = read_file(path, &r.text, err);
+    if (rc) return rc;
+    r.pos = r.text;
+    double *buf = NULL, *psirz = NULL;
+    struct eqdsk_params *e = NULL;
+    size_t len;
+    char *l1 = next_line(&r, &len);
+    int nw = 0, nh = 0;
+    {
+        /* after the 48-character description: idum nw nh (the last three integers) */
+        long vals[8];
+        int nv = 0;
+        const char *s = len > 48 ? l1 + 48 : "";
+        while (*s && nv < 8) {
+            char *end;
+            long x = strtol(s, &end, 10);
+            if (end == s) break;
+            vals[nv++] = x;
+            s = end;
+        }
+        if (nv >= 2) nw = (int)vals[nv - 2], nh = (int)vals[nv - 1];
+    }
+    if (!l1 || nw < 5 || nh < 5 || nw > 100000 || nh > 100000) {
+        rc = gcp_error_set(err, GCP_ERR_VALUE,
+                           "%s:1: expected 48 characters of text then 'idum nw nh' with nw, nh "
+                           ">= 5 (a G-EQDSK file?)",
+                           path);
+        goto fail;
+    }
+    double h[20];
+    if ((rc = read_reals(&r, 20, h, "header (rdim zdim rcentr rleft zmid ...)", err))) goto fail;
+    const size_t NW = (size_t)nw, NH = (size_t)nh;
+    buf = malloc((5 * NW) * sizeof *buf);
+    psirz = malloc(NW * NH * sizeof *psirz);
+    e = calloc(1, sizeof *e);
+    if (!buf || !psirz || !e) {
+        rc = gcp_error_set(err, GCP_ERR_NOMEM, "%s: out of memory", path);
+        goto fail;
+    }
+    double *fpol = buf, *pres = buf + NW, *ffp = buf + 2 * NW, *ppr = buf + 3 * NW,
+           *qpsi = buf + 4 * NW;
+    if ((rc = read_reals(&r, NW, fpol, "fpol", err)) || (rc = read_reals(&r, NW, pres, "pres", err)) ||
+        (rc = read_reals(&r, NW, ffp, "ffprim", err)) ||
+        (rc = read_reals(&r, NW, ppr, "pprime", err)) ||
+        (rc = read_reals(&r, NW * NH, psirz, "psirz", err)) ||
+        (rc = read_reals(&r, NW, qpsi, "qpsi", err)))
+        goto fail;
+    struct gcp_eqdsk_info *in = &e->info;
+    in->nw = nw, in->nh = nh;
+    in->rdim = h[0], in->zdim = h[1], in->rcentr = h[2], in->rleft = h[3], in->zmid = h[4];
+    in->rmaxis = h[5], in->zmaxis = h[6], in->simag = h[7], in->sibry = h[8], in->bcentr = h[9];
+    in->current = h[10];
+    if (!(in->rdim > 0.0 && in->zdim > 0.0 && in->rleft >= 0.0)) {
+        rc = gcp_error_set(err, GCP_ERR_VALUE, "%s: header: rdim = %g, zdim = %g, rleft = %g: "
+                           "need rdim, zdim > 0 and rleft >= 0", path, in->rdim, in->zdim,
+                           in->rleft);
+        goto fail;
+    }
+    if (!(in->sibry != in->simag)) {
+        rc = gcp_error_set(err, GCP_ERR_VALUE, "%s: header: simag = sibry = %g", path, in->simag);
+        goto fail;
+    }
+    /* boundary: Z extent of the last closed flux surface (optional record) */
+    in->zbmin = -INFINITY, in->zbmax = INFINITY;
+    {
+        char *s = next_line(&r, &len);
+        int nb = 0, nl = 0;
+        if (s && sscanf(s, "%d %d", &nb, &nl) >= 1 && nb > 2 && nb < 1000000) {
+            double *bb = malloc(2 * (size_t)nb * sizeof *bb);
+            if (!bb) {
+                rc = gcp_error_set(err, GCP_ERR_NOMEM, "%s: out of memory", path);
+                goto fail;
+            }
+            if ((rc = read_reals(&r, 2 * (size_t)nb, bb, "boundary (rbbbs, zbbbs)", err))) {
+                free(bb);
+                goto fail;
+            }
+            in->zbmin = INFINITY, in->zbmax = -INFINITY;
+            for (int k = 0; k < nb; k++) {
+                in->zbmin = fmin(in->zbmin, bb[2 * k + 1]);
+                in->zbmax = fmax(in->zbmax, bb[2 * k + 1]);
+            }
+            free(bb);
+        }
+    }
+    /* COCOS */
+    const double dpsi = in->sibry - in->simag;
+    int sBp, sRphiZ, srtp;
+    if (cocos == 0) {
+        if (in->current == 0.0 || in->bcentr == 0.0) {
+            rc = gcp_error_set(err, GCP_ERR_VALUE,
+                               "%s: cannot identify the COCOS convention (current = %g A, bcentr "
+                               "= %g T); give cocos = 1..8",
+                               path, in->current, in->bcentr);
+            goto fail;
+        }
+        const int sIp = in->current > 0 ? 1 : -1, sB0 = in->bcentr > 0 ? 1 : -1;
+        const int sq = qpsi[0] > 0 ? 1 : -1;
+        sRphiZ = 1;
+        sBp = (dpsi > 0 ? 1 : -1) * sIp;
+        srtp = sq * sIp * sB0;
+        /* odd COCOS: (sBp, srtp) = (+,+) 1, (-,-) 3, (+,-) 5, (-,+) 7 */
+        cocos = sBp > 0 ? (srtp > 0 ? 1 : 5) : (srtp > 0 ? 7 : 3);
+    } else {
+        sBp = (cocos == 1 || cocos == 2 || cocos == 5 || cocos == 6) ? 1 : -1;
+        sRphiZ = (cocos % 2) ? 1 : -1;
+        srtp = (cocos <= 2 || cocos >= 7) ? 1 : -1;
+    }
+    (void)srtp;
+    in->cocos = cocos;
+    e->s_pol = -(double)sBp * sRphiZ;
+    e->s_tor = sRphiZ;
+    e->dpsi = dpsi;
+    e->F_edge = fpol[NW - 1];
+    /* splines */
+    {
+        const size_t n2[2] = {NW, NH};
+        const double x0[2] = {in->rleft, in->zmid - 0.5 * in->zdim};
+        const double hh[2] = {in->rdim / (double)(nw - 1), in->zdim / (double)(nh - 1)};
+        const double *d1[1] = {psirz};
+        if ((rc = gcp_spl_build(&e->psi, 2, GCP_SPL_CUBIC, n2, x0, hh, 1, d1, err))) goto fail;
+        e->Rmin = 1e-9 * hh[0];
+        const size_t n1[1] = {NW};
+        const double p0[1] = {0.0}, ph[1] = {1.0};
+        const double *dp[3] = {fpol, qpsi, pres};
+        if ((rc = gcp_spl_build(&e->prof, 1, GCP_SPL_CUBIC, n1, p0, ph, 3, dp, err))) goto fail;
+    }
+    struct gcp_field *f = gcp_field_alloc(&gcp_field_eqdsk, 0);
+    if (!f) {
+        rc = gcp_error_set(err, GCP_ERR_NOMEM, "%s: out of memory", path);
+        goto fail;
+    }
+    f->params = e;
+    f->axisymmetric = 1;
+    free(buf);
+    free(psirz);
+    free(r.text);
+    *out = f;
+    return 0;
+fail:
+    if (rc == 0) rc = GCP_ERR_VALUE;
+    free(buf);
+    free(psirz);
+    free(r.text);
+    eqdsk_destroy(e);
+    return rc;
+}
+
+/* ---- evaluation ----------------------------------------------------------- */
+
+/* F and dF/dpsi at psi (file's psi), Z: the profile inside the plasma,
+ * the edge value outside. */
+static inline void eqdsk_F(const struct eqdsk_params *e, double psi, double Z, double *F,
+                           double *dF)
+{
+    const double psiN = (psi - e->info.simag) / e->dpsi;
+    if (psiN > 1.0 || Z < e->info.zbmin || Z > e->info.zbmax) {
+        *F = e->F_edge;
+        *dF = 0.0;
+        return;
+    }
+    const double scale = (double)(e->info.nw - 1);
+    double du;
+    *F = gcp_spl1_eval(&e->prof, 0, psiN * scale, &du, NULL);
+    *dF = du * scale / e->dpsi;
+}
+
+static int eqdsk_eval(const struct gcp_field *f, double t, const double x[3],
+                      struct gcp_field_sample *s)
+{
+    (void)t;
+    const struct eqdsk_params *e = f->params;
+    const int grad = (s->need & GCP_NEED_GRADB) != 0;
+    double c, sn;
+    const double R = gcp_axi_R(x[0], x[1], e->Rmin, &c, &sn);
+    const double p[2] = {R, x[2]};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const int out = gcp_spl_locate(&e->psi, p, grad ? 2 : 1, &loc);
+    gcp_spl_eval(&e->psi, &loc, 0, grad ? 2 : 1, &o);
+    double F, dF;
+    eqdsk_F(e, o.f, x[2], &F, &dF);
+    const double iR = 1.0 / R, sp = e->s_pol, st = e->s_tor;
+    double b[3], dR[3] = {0}, dZ[3] = {0};
+    b[0] = -sp * o.d[1] * iR;
+    b[1] = st * F * iR;
+    b[2] = sp * o.d[0] * iR;
+    if (grad) {
+        dR[0] = -sp * (o.dd[0][1] - o.d[1] * iR) * iR;
+        dZ[0] = -sp * o.dd[1][1] * iR;
+        dR[1] = st * (dF * o.d[0] - F * iR) * iR;
+        dZ[1] = st * dF * o.d[1] * iR;
+        dR[2] = sp * (o.dd[0][0] - o.d[0] * iR) * iR;
+        dZ[2] = sp * o.dd[0][1] * iR;
+    }
+    gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);
+    if (s->need & GCP_NEED_E) s->E[0] = s->E[1] = s->E[2] = 0.0;
+    return out ? GCP_LEFT_GRID : 0;
+}
+
+static void eqdsk_eval_block(const struct gcp_field *f, double t, size_t n, const double *x,
+                             const double *y, const double *z, double *Bx, double *By,
+                             double *Bz, double *Ex, double *Ey, double *Ez, int32_t *status)
+{
+    struct gcp_field_sample s;
+    s.need = GCP_NEED_B;
+    for (size_t i = 0; i < n; i++) {
+        const double p[3] = {x[i], y[i], z[i]};
+        const int rc = eqdsk_eval(f, t, p, &s);
+        Bx[i] = s.B[0];
+        By[i] = s.B[1];
+        Bz[i] = s.B[2];
+        if (Ex) Ex[i] = Ey[i] = Ez[i] = 0.0;
+        if (status && rc && status[i] == 0) status[i] = rc;
+    }
+}
+
+const struct gcp_field_type gcp_field_eqdsk = {
+    .name = "eqdsk",
+    .doc = "tokamak equilibrium from a G-EQDSK file (psi bicubic, F(psi) spline): file, [cocos]",
+    .eval = eqdsk_eval,
+    .eval_block = eqdsk_eval_block,
+    .destroy = eqdsk_destroy,
+};
+
+int gcp_eqdsk_psi_RZ(const struct gcp_field *f, double R, double Z, double *psi)
+{
+    const struct eqdsk_params *e = f->params;
+    const double p[2] = {R, Z};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const int out = gcp_spl_locate(&e->psi, p, 0, &loc);
+    gcp_spl_eval(&e->psi, &loc, 0, 0, &o);
+    *psi = e->s_pol * o.f;
+    return out ? GCP_LEFT_GRID : 0;
+}
+
+int gcp_field_eqdsk_info(const struct gcp_field *f, struct gcp_eqdsk_info *info)
+{
+    if (!f || f->type != &gcp_field_eqdsk) return GCP_ERR_STATE;
+    *info = ((const struct eqdsk_params *)f->params)->info;
+    return 0;
+}
+
+static double eqdsk_profile(const struct gcp_field *f, int c, double psiN)
+{
+    if (!f || f->type != &gcp_field_eqdsk) return NAN;
+    const struct eqdsk_params *e = f->params;
+    return gcp_spl1_eval(&e->prof, c, psiN * (double)(e->info.nw - 1), NULL, NULL);
+}
+
+double gcp_field_eqdsk_q(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 1, psiN); }
+double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 0, psiN); }
+
+/* Keys: file (required), cocos = 1..8 (optional; default: identified from
+ * the signs, see the top of this file). */
+int gcp_field_eqdsk_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                 struct gcp_error *err)
+{
+    char file[1024];
+    double cocos = 0.0;
+    int rc;
+    *out = NULL;
+    if ((rc = gcp_section_string(sec, "file", 1, file, sizeof file, err)) < 0) return rc;
+    if ((rc = gcp_section_quantity(sec, "cocos", GCP_Q_NUMBER, 0, &cocos, err)) < 0) return rc;
+    if (!(cocos == floor(cocos) && cocos >= 0 && cocos <= 8))
+        return gcp_section_error(sec, "cocos", err, GCP_ERR_VALUE,
+                                 "expected an integer 1..8 (COCOS of psi in Wb/rad), got %g", cocos);
+    if ((rc = gcp_section_check_unused(sec, "file cocos", err)) < 0) return rc;
+    struct gcp_error e2 = {0, ""};
+    rc = gcp_field_eqdsk_load(file, (int)cocos, out, &e2);
+    if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
+    return 0;
+}

@@ -1,0 +1,571 @@
+/* The `grid` field model: B (and E) interpolated from a uniform grid, 2D
+ * axisymmetric (R, Z) or 3D Cartesian (x, y, z); and the spline core shared
+ * with eqdsk.c (see grid_priv.h for the interpolant and its error orders).
+ *
+ * 2D axisymmetric.  The grid holds the cylindrical components
+ * (B_R, B_phi, B_Z)(R, Z).  At a point x: R = hypot(x, y), phi = atan2(y, x);
+ * the components and their R, Z derivatives come from the spline and are
+ * turned into Cartesian B and the Cartesian grad B with the 1/R terms of the
+ * rotating basis (gcp_axi_to_cart in grid_priv.h).  With use_psi the
+ * poloidal part comes from the spline of psi (psi = R A_phi [Wb/rad]):
+ *   B_R = -(1/R) dpsi/dZ,  B_Z = (1/R) dpsi/dR,
+ * so div B = (1/R) d(R B_R)/dR + dB_Z/dZ = (-psi_ZR + psi_RZ)/R = 0 exactly
+ * (the mixed derivatives of one tensor-product spline commute), and grad B
+ * uses the spline's second derivatives (continuous: the spline is C2).
+ * Without psi the three components are interpolated directly, which is one
+ * order more accurate in B (O(h^4) against O(h^3)) but divergence-free only
+ * to interpolation accuracy.  Default: components when the file has them.
+ *
+ * 3D Cartesian: Bx, By, Bz interpolated directly; grad B[i][j] is the
+ * derivative of the interpolant of B_i along x_j.
+ *
+ * Leaving the grid: a point outside the closed box of nodes (for 2D: R or Z
+ * outside [R_first, R_last], [Z_first, Z_last]) gets GCP_LEFT_GRID; the
+ * values returned with it are those at the nearest point of the box (finite,
+ * never extrapolated), only there to keep the caller's arithmetic finite.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "field_priv.h"
+#include "gcpush/particles.h"
+#include "grid_priv.h"
+
+/* ---- spline core -------------------------------------------------------- */
+
+/* Interpolating cubic B-spline of one grid line: f[0..n-1] with stride fs
+ * in, coefficients c[-1..n] (n + 2 values, stride cs) out; tmp has n
+ * doubles.  Equations in grid_priv.h; the Thomas algorithm on
+ *   row 0:    4 c0 + 2 c1          = 6 f0 + 2 hd0
+ *   row i:    c_{i-1} + 4 c_i + c_{i+1} = 6 f_i
+ *   row n-1:  2 c_{n-2} + 4 c_{n-1}    = 6 f_{n-1} - 2 hd1
+ * then c_{-1} = c1 - 2 hd0, c_n = c_{n-2} + 2 hd1 (the clamped slopes). */
+static void spl_line(size_t n, const double *f, size_t fs, double *c, size_t cs, double *tmp)
+{
+#define F(i) f[(size_t)(i) * fs]
+#define C(i) c[(size_t)((i) + 1) * cs]
+    const double hd0 = (-25.0 * F(0) + 48.0 * F(1) - 36.0 * F(2) + 16.0 * F(3) - 3.0 * F(4)) / 12.0;
+    const double hd1 = (25.0 * F(n - 1) - 48.0 * F(n - 2) + 36.0 * F(n - 3) - 16.0 * F(n - 4) +
+                        3.0 * F(n - 5)) / 12.0;
+    /* forward sweep: tmp = modified super-diagonal, C(i) = modified rhs */
+    double beta = 4.0;
+    tmp[0] = 2.0 / beta;
+    C(0) = (6.0 * F(0) + 2.0 * hd0) / beta;
+    for (size_t i = 1; i < n; i++) {
+        const double sub = (i == n - 1) ? 2.0 : 1.0;
+        const double sup = 1.0;
+        const double rhs = (i == n - 1) ? 6.0 * F(n - 1) - 2.0 * hd1 : 6.0 * F(i);
+        beta = 4.0 - sub * tmp[i - 1];
+        tmp[i] = sup / beta;
+        C(i) = (rhs - sub * C(i - 1)) / beta;
+    }
+    for (size_t i = n - 1; i-- > 0;) C(i) -= tmp[i] * C(i + 1);
+    C(-1) = C(1) - 2.0 * hd0;
+    C((long)n) = C(n - 2) + 2.0 * hd1;
+#undef F
+#undef C
+}
+
+void gcp_spl_free(struct gcp_spl *s)
+{
+    if (!s) return;
+    for (int c = 0; c < GCP_SPL_MAXCOMP; c++) {
+        free(s->coef[c]);
+        s->coef[c] = NULL;
+    }
+}
+
+int gcp_spl_build(struct gcp_spl *s, int nd, int kind, const size_t n[], const double x0[],
+                  const double h[], int ncomp, const double *const data[], struct gcp_error *err)
+{
+    memset(s, 0, sizeof *s);
+    if (nd < 1 || nd > 3 || ncomp < 1 || ncomp > GCP_SPL_MAXCOMP)
+        return gcp_error_set(err, GCP_ERR_STATE, "spline: bad dimensions");
+    s->nd = nd;
+    s->kind = kind;
+    s->ncomp = ncomp;
+    const size_t nmin = kind == GCP_SPL_CUBIC ? 5 : 2;
+    const size_t pad = kind == GCP_SPL_CUBIC ? 2 : 0;
+    size_t total = 1, stride = 1;
+    for (int a = 0; a < 3; a++) {
+        if (a < nd) {
+            if (n[a] < nmin)
+                return gcp_error_set(err, GCP_ERR_VALUE,
+                                     "axis %d has %zu nodes; %s interpolation needs at least %zu",
+                                     a, n[a], kind == GCP_SPL_CUBIC ? "cubic" : "linear", nmin);
+            if (!(h[a] > 0.0 && isfinite(h[a]) && isfinite(x0[a])))
+                return gcp_error_set(err, GCP_ERR_VALUE,
+                                     "axis %d: spacing must be positive and finite, got %g", a,
+                                     h[a]);
+            s->n[a] = n[a];
+            s->m[a] = n[a] + pad;
+            s->x0[a] = x0[a];
+            s->h[a] = h[a];
+            s->inv_h[a] = 1.0 / h[a];
+            s->umax[a] = (double)(n[a] - 1);
+        } else {
+            s->n[a] = s->m[a] = 1;
+        }
+        s->stride[a] = stride;
+        stride *= s->m[a];
+        total *= s->m[a];
+    }
+    const size_t nmax = s->m[0] > s->m[1] ? (s->m[0] > s->m[2] ? s->m[0] : s->m[2])
+                                          : (s->m[1] > s->m[2] ? s->m[1] : s->m[2]);
+    double *tmp = malloc(nmax * sizeof *tmp);
+    double *line = malloc(nmax * sizeof *line);
+    if (!tmp || !line) goto nomem;
+    for (int c = 0; c < ncomp; c++) {
+        double *co = s->coef[c] = calloc(total, sizeof(double));
+        if (!co) goto nomem;
+        const double *d = data[c];
+        const size_t o = kind == GCP_SPL_CUBIC ? 1 : 0; /* offset of node 0 in the padded array */
+        const size_t o1 = nd > 1 ? o : 0, o2 = nd > 2 ? o : 0;
+        for (size_t k = 0; k < s->n[2]; k++)
+            for (size_t j = 0; j < s->n[1]; j++)
+                for (size_t i = 0; i < s->n[0]; i++)
+                    co[(i + o) + s->stride[1] * (j + o1) + s->stride[2] * (k + o2)] =
+                        d[i + s->n[0] * (j + s->n[1] * k)];
+        if (kind != GCP_SPL_CUBIC) continue;
+        /* axis by axis; before pass a, axes > a hold data only at interior
+         * (node) positions, axes < a everywhere */
+        for (int a = 0; a < nd; a++) {
+            const size_t na = s->n[a], sa = s->stride[a];
+            size_t lo[3], hi[3];
+            for (int b = 0; b < 3; b++) {
+                const int padded = b < nd && b != a;
+                lo[b] = (padded && b > a) ? 1 : 0;
+                hi[b] = (padded && b > a) ? s->n[b] + 1 : s->m[b];
+                if (b == a) lo[b] = 0, hi[b] = 1;
+            }
+            for (size_t k = lo[2]; k < hi[2]; k++)
+                for (size_t j = lo[1]; j < hi[1]; j++)
+                    for (size_t i = lo[0]; i < hi[0]; i++) {
+                        double *p = co + i * s->stride[0] + j * s->stride[1] + k * s->stride[2];
+                        for (size_t q = 0; q < na; q++) line[q] = p[(q + 1) * sa];
+                        spl_line(na, line, 1, p, sa, tmp);
+                    }
+        }
+    }
+    free(tmp);
+    free(line);
+    return 0;
+nomem:
+    free(tmp);
+    free(line);
+    gcp_spl_free(s);
+    return gcp_error_set(err, GCP_ERR_NOMEM, "spline: out of memory");
+}
+
+int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct gcp_spl_loc *loc)
+{
+    int out = 0;
+    size_t base = 0;
+    for (int a = 0; a < s->nd; a++) {
+        double u = (x[a] - s->x0[a]) * s->inv_h[a];
+        if (!(u >= 0.0)) { /* also NaN */
+            out = 1;
+            u = 0.0;
+        } else if (u > s->umax[a]) {
+            out = 1;
+            u = s->umax[a];
+        }
+        size_t i = (size_t)u;
+        if (i > s->n[a] - 2) i = s->n[a] - 2;
+        const double t = u - (double)i;
+        base += i * s->stride[a];
+        double *w = loc->w[a], *dw = loc->dw[a], *ddw = loc->ddw[a];
+        const double ih = s->inv_h[a];
+        if (s->kind == GCP_SPL_CUBIC) {
+            const double t2 = t * t, t3 = t2 * t, omt = 1.0 - t;
+            w[0] = omt * omt * omt / 6.0;
+            w[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+            w[2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+            w[3] = t3 / 6.0;
+            if (order >= 1) {
+                dw[0] = -0.5 * omt * omt * ih;
+                dw[1] = (1.5 * t2 - 2.0 * t) * ih;
+                dw[2] = (-1.5 * t2 + t + 0.5) * ih;
+                dw[3] = 0.5 * t2 * ih;
+            }
+            if (order >= 2) {
+                const double ih2 = ih * ih;
+                ddw[0] = omt * ih2;
+                ddw[1] = (3.0 * t - 2.0) * ih2;
+                ddw[2] = (1.0 - 3.0 * t) * ih2;
+                ddw[3] = t * ih2;
+            }
+        } else {
+            w[0] = 1.0 - t;
+            w[1] = t;
+            w[2] = w[3] = 0.0;
+            dw[0] = -ih;
+            dw[1] = ih;
+            dw[2] = dw[3] = 0.0;
+            for (int k = 0; k < 4; k++) ddw[k] = 0.0;
+        }
+    }
+    loc->base = base;
+    return out;
+}
+
+void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c, int order,
+                  struct gcp_spl_out *o)
+{
+    const int K = s->kind == GCP_SPL_CUBIC ? 4 : 2;
+    const double *co = s->coef[c] + loc->base;
+    if (s->nd == 1) {
+        double f = 0, d = 0, dd = 0;
+        for (int a = 0; a < K; a++) {
+            f += loc->w[0][a] * co[a];
+            d += loc->dw[0][a] * co[a];
+            dd += loc->ddw[0][a] * co[a];
+        }
+        o->f = f;
+        o->d[0] = d;
+        o->dd[0][0] = dd;
+        return;
+    }
+    if (s->nd == 2) {
+        const size_t s1 = s->stride[1];
+        double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
+        for (int b = 0; b < K; b++) {
+            const double *r = co + b * s1;
+            double v = 0, v0 = 0, v00 = 0;
+            for (int a = 0; a < K; a++) v += loc->w[0][a] * r[a];
+            f += loc->w[1][b] * v;
+            if (order >= 1) {
+                for (int a = 0; a < K; a++) v0 += loc->dw[0][a] * r[a];
+                d0 += loc->w[1][b] * v0;
+                d1 += loc->dw[1][b] * v;
+            }
+            if (order >= 2) {
+                for (int a = 0; a < K; a++) v00 += loc->ddw[0][a] * r[a];
+                d00 += loc->w[1][b] * v00;
+                d01 += loc->dw[1][b] * v0;
+                d11 += loc->ddw[1][b] * v;
+            }
+        }
+        o->f = f;
+        o->d[0] = d0;
+        o->d[1] = d1;
+        o->dd[0][0] = d00;
+        o->dd[0][1] = o->dd[1][0] = d01;
+        o->dd[1][1] = d11;
+        return;
+    }
+    /* 3D: contract axis 0, then 1, then 2 (second derivatives not needed) */
+    const size_t s1 = s->stride[1], s2 = s->stride[2];
+    double f = 0, d0 = 0, d1 = 0, d2 = 0;
+    for (int k = 0; k < K; k++) {
+        double g = 0, g0 = 0, g1 = 0;
+        for (int b = 0; b < K; b++) {
+            const double *r = co + b * s1 + k * s2;
+            double v = 0, v0 = 0;
+            for (int a = 0; a < K; a++) v += loc->w[0][a] * r[a];
+            g += loc->w[1][b] * v;
+            if (order >= 1) {
+                for (int a = 0; a < K; a++) v0 += loc->dw[0][a] * r[a];
+                g0 += loc->w[1][b] * v0;
+                g1 += loc->dw[1][b] * v;
+            }
+        }
+        f += loc->w[2][k] * g;
+        if (order >= 1) {
+            d0 += loc->w[2][k] * g0;
+            d1 += loc->w[2][k] * g1;
+            d2 += loc->dw[2][k] * g;
+        }
+    }
+    o->f = f;
+    o->d[0] = d0;
+    o->d[1] = d1;
+    o->d[2] = d2;
+}
+
+double gcp_spl1_eval(const struct gcp_spl *s, int c, double u, double *du, double *ddu)
+{
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const double x = s->x0[0] + u * s->h[0];
+    gcp_spl_locate(s, &x, 2, &loc);
+    gcp_spl_eval(s, &loc, c, 2, &o);
+    if (du) *du = o.d[0] * s->h[0];
+    if (ddu) *ddu = o.dd[0][0] * s->h[0] * s->h[0];
+    return o.f;
+}
+
+/* ---- the grid model ------------------------------------------------------- */
+
+/* Component slots in the spline. */
+enum { C_BR = 0, C_BP = 1, C_BZ = 2, C_E0 = 3, C_PSI = 6 };
+
+struct grid_params {
+    struct gcp_spl spl;
+    int geometry;  /* enum gcp_grid_geometry */
+    int use_psi;   /* axisymmetric: poloidal B from psi */
+    int has_E;
+    int has_psi;   /* psi available for gcp_field_psi */
+    int psi_slot;  /* component index of psi */
+    int e_slot;    /* component index of the first E component */
+    double Rmin;   /* [m] floor of R (the axis) */
+};
+
+static void grid_destroy(void *p)
+{
+    struct grid_params *g = p;
+    if (!g) return;
+    gcp_spl_free(&g->spl);
+    free(g);
+}
+
+/* Axisymmetric: cylindrical components and their R, Z derivatives. */
+static void grid_axi_comp(const struct grid_params *g, const struct gcp_spl_loc *loc, double R,
+                          int grad, double b[3], double dR[3], double dZ[3])
+{
+    struct gcp_spl_out o;
+    if (g->use_psi) {
+        gcp_spl_eval(&g->spl, loc, g->psi_slot, grad ? 2 : 1, &o);
+        const double iR = 1.0 / R;
+        b[0] = -o.d[1] * iR;
+        b[2] = o.d[0] * iR;
+        if (grad) {
+            dR[0] = -(o.dd[0][1] - o.d[1] * iR) * iR;
+            dZ[0] = -o.dd[1][1] * iR;
+            dR[2] = (o.dd[0][0] - o.d[0] * iR) * iR;
+            dZ[2] = o.dd[0][1] * iR;
+        }
+        gcp_spl_eval(&g->spl, loc, C_BP, grad, &o);
+        b[1] = o.f;
+        dR[1] = o.d[0];
+        dZ[1] = o.d[1];
+        return;
+    }
+    for (int c = 0; c < 3; c++) {
+        gcp_spl_eval(&g->spl, loc, c, grad, &o);
+        b[c] = o.f;
+        dR[c] = o.d[0];
+        dZ[c] = o.d[1];
+    }
+}
+
+static int grid_eval(const struct gcp_field *f, double t, const double x[3],
+                     struct gcp_field_sample *s)
+{
+    (void)t;
+    const struct grid_params *g = f->params;
+    const int grad = (s->need & GCP_NEED_GRADB) != 0;
+    struct gcp_spl_loc loc;
+    int out;
+    if (g->geometry == GCP_GRID_AXISYMMETRIC) {
+        double c, sn;
+        const double R = gcp_axi_R(x[0], x[1], g->Rmin, &c, &sn);
+        const double p[2] = {R, x[2]};
+        out = gcp_spl_locate(&g->spl, p, g->use_psi && grad ? 2 : grad, &loc);
+        double b[3], dR[3] = {0}, dZ[3] = {0};
+        grid_axi_comp(g, &loc, R, grad, b, dR, dZ);
+        gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);
+        if (s->need & GCP_NEED_E) {
+            if (g->has_E) {
+                struct gcp_spl_out o;
+                double e[3];
+                for (int k = 0; k < 3; k++) {
+                    gcp_spl_eval(&g->spl, &loc, g->e_slot + k, 0, &o);
+                    e[k] = o.f;
+                }
+                s->E[0] = e[0] * c - e[1] * sn;
+                s->E[1] = e[0] * sn + e[1] * c;
+                s->E[2] = e[2];
+            } else {
+                s->E[0] = s->E[1] = s->E[2] = 0.0;
+            }
+        }
+    } else {
+        out = gcp_spl_locate(&g->spl, x, grad, &loc);
+        struct gcp_spl_out o;
+        for (int k = 0; k < 3; k++) {
+            gcp_spl_eval(&g->spl, &loc, k, grad, &o);
+            s->B[k] = o.f;
+            if (grad)
+                for (int j = 0; j < 3; j++) s->gradB[k][j] = o.d[j];
+        }
+        if (s->need & GCP_NEED_E) {
+            for (int k = 0; k < 3; k++) {
+                if (g->has_E) {
+                    gcp_spl_eval(&g->spl, &loc, g->e_slot + k, 0, &o);
+                    s->E[k] = o.f;
+                } else {
+                    s->E[k] = 0.0;
+                }
+            }
+        }
+    }
+    return out ? GCP_LEFT_GRID : 0;
+}
+
+/* One scalar evaluation per lane (B only, E when asked); a lane's earlier
+ * status is kept. */
+static void grid_eval_block(const struct gcp_field *f, double t, size_t n, const double *x,
+                            const double *y, const double *z, double *Bx, double *By,
+                            double *Bz, double *Ex, double *Ey, double *Ez, int32_t *status)
+{
+    struct gcp_field_sample s;
+    s.need = GCP_NEED_B | (Ex ? GCP_NEED_E : 0u);
+    for (size_t i = 0; i < n; i++) {
+        const double p[3] = {x[i], y[i], z[i]};
+        const int rc = grid_eval(f, t, p, &s);
+        Bx[i] = s.B[0];
+        By[i] = s.B[1];
+        Bz[i] = s.B[2];
+        if (Ex) {
+            Ex[i] = s.E[0];
+            Ey[i] = s.E[1];
+            Ez[i] = s.E[2];
+        }
+        if (status && rc && status[i] == 0) status[i] = rc;
+    }
+}
+
+const struct gcp_field_type gcp_field_grid = {
+    .name = "grid",
+    .doc = "B (and E) interpolated from an HDF5 grid file (2D R-Z or 3D x-y-z): file, "
+           "[interpolation = cubic|linear], [use_psi]",
+    .eval = grid_eval,
+    .eval_block = grid_eval_block,
+    .destroy = grid_destroy,
+};
+
+struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
+                                        enum gcp_grid_interp interp, int use_psi,
+                                        struct gcp_error *err)
+{
+    const int axi = d->geometry == GCP_GRID_AXISYMMETRIC;
+    if (!axi && d->geometry != GCP_GRID_CARTESIAN) {
+        gcp_error_set(err, GCP_ERR_VALUE, "grid: unknown geometry %d", (int)d->geometry);
+        return NULL;
+    }
+    if (use_psi && !(axi && d->psi)) {
+        gcp_error_set(err, GCP_ERR_VALUE, "grid: use_psi needs an axisymmetric grid with psi");
+        return NULL;
+    }
+    if (use_psi && interp == GCP_INTERP_LINEAR) {
+        gcp_error_set(err, GCP_ERR_VALUE,
+                      "grid: B from psi needs second derivatives of psi; use cubic "
+                      "interpolation (linear gives a piecewise constant B and no grad B)");
+        return NULL;
+    }
+    if (!d->B[1] || (!use_psi && (!d->B[0] || !d->B[2]))) {
+        gcp_error_set(err, GCP_ERR_VALUE, "grid: B components missing");
+        return NULL;
+    }
+    struct gcp_field *f = gcp_field_alloc(&gcp_field_grid, 0);
+    struct grid_params *g = calloc(1, sizeof *g);
+    if (!f || !g) {
+        free(f);
+        free(g);
+        gcp_error_set(err, GCP_ERR_NOMEM, "grid: out of memory");
+        return NULL;
+    }
+    f->params = g;
+    g->geometry = d->geometry;
+    g->use_psi = use_psi != 0;
+    const double *comp[GCP_SPL_MAXCOMP];
+    int nc = 0;
+    comp[nc++] = use_psi ? d->B[1] : d->B[0]; /* slot 0 unused in psi mode: Bphi twice */
+    comp[nc++] = d->B[1];
+    comp[nc++] = use_psi ? d->B[1] : d->B[2];
+    g->has_E = d->E[0] && d->E[1] && d->E[2];
+    if (g->has_E) {
+        g->e_slot = nc;
+        for (int k = 0; k < 3; k++) comp[nc++] = d->E[k];
+    }
+    if (axi && d->psi) {
+        g->has_psi = 1;
+        g->psi_slot = nc;
+        comp[nc++] = d->psi;
+    }
+    const int nd = axi ? 2 : 3;
+    int rc = gcp_spl_build(&g->spl, nd, interp == GCP_INTERP_LINEAR ? GCP_SPL_LINEAR : GCP_SPL_CUBIC,
+                           d->n, d->origin, d->spacing, nc, comp, err);
+    if (rc) {
+        gcp_field_free(f);
+        return NULL;
+    }
+    if (use_psi) { /* drop the two placeholder copies */
+        free(g->spl.coef[C_BR]);
+        free(g->spl.coef[C_BZ]);
+        g->spl.coef[C_BR] = g->spl.coef[C_BZ] = NULL;
+    }
+    g->Rmin = axi ? 1e-9 * d->spacing[0] : 0.0;
+    f->has_E = g->has_E;
+    f->axisymmetric = axi;
+    f->r_inner = d->r_inner > 0.0 ? d->r_inner : 0.0;
+    f->r_outer = d->r_outer > 0.0 ? d->r_outer : INFINITY;
+    f->z_max = d->z_max > 0.0 ? d->z_max : INFINITY;
+    return f;
+}
+
+int gcp_field_grid_load(const char *path, enum gcp_grid_interp interp, int use_psi,
+                        struct gcp_field **out, struct gcp_error *err)
+{
+    struct gcp_grid_data d;
+    *out = NULL;
+    int rc = gcp_grid_read(path, &d, err);
+    if (rc) return rc;
+    if (use_psi < 0)
+        use_psi = d.geometry == GCP_GRID_AXISYMMETRIC && d.psi && (!d.B[0] || !d.B[2]);
+    if (!use_psi && (!d.B[0] || !d.B[2])) {
+        gcp_grid_data_free(&d);
+        return gcp_error_set(err, GCP_ERR_VALUE, "%s: datasets BR and BZ are missing (and no psi)",
+                             path);
+    }
+    struct gcp_error e2 = {0, ""};
+    *out = gcp_field_grid_create(&d, interp, use_psi, &e2);
+    gcp_grid_data_free(&d);
+    if (!*out) return gcp_error_set(err, e2.code ? e2.code : GCP_ERR_NOMEM, "%s: %s", path, e2.msg);
+    return 0;
+}
+
+int gcp_field_psi(const struct gcp_field *f, const double x[3], double *psi)
+{
+    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_psi_RZ(f, hypot(x[0], x[1]), x[2], psi);
+    if (f->type != &gcp_field_grid) return GCP_ERR_STATE;
+    const struct grid_params *g = f->params;
+    if (!g->has_psi) return GCP_ERR_STATE;
+    const double p[2] = {hypot(x[0], x[1]), x[2]};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const int out = gcp_spl_locate(&g->spl, p, 0, &loc);
+    gcp_spl_eval(&g->spl, &loc, g->psi_slot, 0, &o);
+    *psi = o.f;
+    return out ? GCP_LEFT_GRID : 0;
+}
+
+/* Keys: file (required), interpolation = cubic | linear (default cubic),
+ * use_psi = yes | no (default: only when the file has psi and no BR/BZ). */
+int gcp_field_grid_from_section(struct gcp_section *sec, struct gcp_field **out,
+                                struct gcp_error *err)
+{
+    char file[1024], interp[32] = "cubic";
+    int use_psi = -1, rc;
+    *out = NULL;
+    if ((rc = gcp_section_string(sec, "file", 1, file, sizeof file, err)) < 0) return rc;
+    if ((rc = gcp_section_string(sec, "interpolation", 0, interp, sizeof interp, err)) < 0)
+        return rc;
+    if ((rc = gcp_section_flag(sec, "use_psi", 0, &use_psi, err)) < 0) return rc;
+    if (rc == 0) use_psi = -1;
+    enum gcp_grid_interp ip;
+    if (strcmp(interp, "cubic") == 0)
+        ip = GCP_INTERP_CUBIC;
+    else if (strcmp(interp, "linear") == 0)
+        ip = GCP_INTERP_LINEAR;
+    else
+        return gcp_section_error(sec, "interpolation", err, GCP_ERR_VALUE,
+                                 "expected cubic or linear, got '%s'", interp);
+    if ((rc = gcp_section_check_unused(sec, "file interpolation use_psi", err)) < 0) return rc;
+    struct gcp_error e2 = {0, ""};
+    rc = gcp_field_grid_load(file, ip, use_psi, out, &e2);
+    if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
+    return 0;
+}
