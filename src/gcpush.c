@@ -6,8 +6,8 @@
  *   gcpush --help | --version
  *
  * Same binary with and without mpirun.  Exit status: 0 success, 1 a run that
- * failed (I/O), 2 bad usage or a bad run file, 3 interrupted (SIGINT or
- * SIGTERM: a checkpoint was written).  Messages come from rank 0 only, one
+ * failed (I/O), 2 bad usage or a bad run file, 3 interrupted (SIGINT,
+ * SIGTERM or SIGUSR1: a checkpoint was written).  Messages come from rank 0 only, one
  * line each, naming file, line and key. */
 #include <signal.h>
 #include <stdio.h>
@@ -298,8 +298,11 @@ int main(int argc, char **argv)
         MPI_Finalize();
         return EXIT_BAD_INPUT;
     }
+    /* SIGUSR1 too: mpirun forwards it to every rank, whereas it answers
+     * SIGINT/SIGTERM by killing the job after a short grace period */
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
+    signal(SIGUSR1, on_signal);
 
     struct gcp_results res;
     gcp_results_init(&res, sc->trajectory_samples);

@@ -82,6 +82,20 @@ grep -q "checkpoint written" term.txt || die "SIGTERM: $(cat term.txt)"
 "$GCPUSH" --quiet --restart long.h5 || die "restart after SIGTERM failed"
 same ref.h5 long.h5
 
+# under mpirun, SIGUSR1 (which mpirun forwards to every rank) does the same;
+# a run twice as long, so 2 ranks are still busy at 0.4 of the 1-rank time
+sed "s/^duration = 1 s/duration = 2 s/; s/long.h5/long2.h5/" long.run > long2.run
+sed "s/long2.h5/ref2.h5/" long2.run > ref2.run
+"$GCPUSH" --quiet ref2.run || die "reference run 2 failed"
+$MPIRUN -np 2 "$GCPUSH" --quiet long2.run > /dev/null 2> usr1.txt & pid=$!
+sleep "$(awk -v t="$took" 'BEGIN { print t * 0.4 }')"
+kill -USR1 $pid; wait $pid; rc=$?
+[ $rc != 0 ] || die "SIGUSR1 under mpirun: exit status 0"
+grep -q "checkpoint written" usr1.txt || die "SIGUSR1 under mpirun: $(cat usr1.txt)"
+[ -f long2.h5 ] && die "an interrupted MPI run wrote its output"
+$MPIRUN -np 3 "$GCPUSH" --quiet --restart long2.h5 || die "restart after SIGUSR1 failed"
+same ref2.h5 long2.h5
+
 # load balance: half the particles sit in the loss cone (mirror ratio 5,
 # loss cone 26.6 deg; pitch uniform in 5..48 deg) and leave within a
 # bounce, the rest are trapped for the whole run.  Self-scheduled 64-particle
