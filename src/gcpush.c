@@ -20,6 +20,7 @@
 
 #include "gcpush/io.h"
 #include "gcpush/run.h"
+#include "gcpush/sweep.h"
 #include "par/par.h"
 
 #ifndef GCP_VERSION
@@ -277,6 +278,12 @@ int main(int argc, char **argv)
         free_list(files, nfiles);
         MPI_Finalize();
         return EXIT_BAD_INPUT;
+    }
+    if (!restart && gcp_sweep_wanted(sc)) { /* [sweep]: error against run time (sweep.h) */
+        int st = gcp_sweep_main(sc, check, quiet);
+        gcp_scene_free(sc);
+        MPI_Finalize();
+        return st;
     }
     if (check) {
         if (me == 0 && !quiet) {

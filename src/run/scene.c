@@ -225,7 +225,7 @@ static int parse_trajectory(struct gcp_section *s, int64_t *every, int64_t *samp
 }
 
 static const char *const known_sections[] = {"scene", "field", "integrator", "diagnostics",
-                                             "output", NULL};
+                                             "output", "sweep", NULL};
 
 static int check_sections(struct gcp_run_file *rf, struct gcp_error *err)
 {
@@ -236,7 +236,7 @@ static int check_sections(struct gcp_run_file *rf, struct gcp_error *err)
         if (!ok)
             return gcp_error_set(err, GCP_ERR_UNKNOWN,
                                  "%s:%d: [%s]: unknown section (scene, field, particles, "
-                                 "particles.NAME, integrator, diagnostics, output)",
+                                 "particles.NAME, integrator, diagnostics, output, sweep)",
                                  rf->path, rf->sec[i].line, n);
     }
     static const char *const required[] = {"scene", "integrator", "output", NULL};
@@ -323,7 +323,8 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     struct gcp_section *fs = gcp_run_file_section(rf, "field");
     if (!gcp_field_type_lookup(sc->field_model))
         return gcp_section_error(s, "field", err, GCP_ERR_UNKNOWN,
-                                 "unknown field model '%s' (uniform, mirror, dipole, tokamak)",
+                                 "unknown field model '%s' (uniform, mirror, dipole, tokamak, grid, "
+                                 "eqdsk, igrf)",
                                  sc->field_model);
     if ((rc = gcp_field_from_section(sc->field_model, fs ? fs : &empty, &sc->field, err)) < 0)
         return rc;

@@ -1,0 +1,78 @@
+#!/bin/sh
+# [sweep]: the table on stdout, /sweep in the output (layout of README
+# "Output"), analysis/work_precision.py, and bad [sweep] sections (one line
+# naming file:line and key, exit 2, no output left behind).
+set -u
+. "$(dirname "$0")/lib.sh"
+ROOT=$(pwd)
+cd "$TMP"
+sed 's/^file = sweep-gyration.h5/file = out.h5/' "$ROOT/runs/sweep-gyration.run" > sw.run
+"$GCPUSH" --check sw.run > check.txt 2>&1 || die "--check: $(cat check.txt)"
+grep -q "ok: sweep of 4 method" check.txt || die "--check says: $(cat check.txt)"
+[ ! -e out.h5 ] || die "--check wrote output"
+"$GCPUSH" sw.run > table.txt 2> progress.txt || die "sweep run failed: $(tail -2 progress.txt)"
+grep -q "^sweep sweep-gyration: 1 particle" table.txt || die "no table header: $(head -2 table.txt)"
+[ "$(grep -c '^higuera-cary ' table.txt)" = 7 ] || die "table rows: $(cat table.txt)"
+"$PY" - <<'PY' || die "/sweep layout or values"
+import sys, h5py, numpy as np
+f = h5py.File("out.h5", "r")
+for a in ("gcpush_version", "git_hash", "build_flags", "run_file", "units"):
+    assert a in f.attrs, a
+g = f["sweep"]
+assert g.attrs["reference"] in (b"analytic", "analytic")
+cols = ("method population dt dt_given dt_unit tolerance cpu_seconds steps particles failed "
+        "position_error position_error_gyroradius position_error_path gc_position_error "
+        "gyrophase_error bounce_phase_error drift_phase_error energy_error mu_drift K_drift Lstar_drift").split()
+for c in cols:
+    assert c in g and g[c].shape == (28,), c
+    assert "units" in g[c].attrs, c
+m = np.array([x.decode() for x in g["method"][()]])
+e = g["position_error"][()]
+assert np.all(g["failed"][()] == 0)
+assert np.all(g["cpu_seconds"][()] > 0)
+assert np.all(e[m == "boris-zu"] < 1e-9), e[m == "boris-zu"]
+b = e[m == "boris"]
+slope = np.log(b[-3] / b[-1]) / np.log(4.0)
+assert 1.9 < slope < 2.1, slope          # the second order of boris
+assert np.all(g["energy_error"][()] < 1e-12)
+assert np.all(np.isnan(g["mu_drift"][()]))  # hook, not measured yet
+PY
+"$PY" "$ROOT/analysis/work_precision.py" out.h5 -o wp.png > wp.txt 2> wp.err || die "work_precision: $(cat wp.err)"
+[ -s wp.png ] || die "no PNG"
+grep -q "^boris .*order 2" wp.txt || die "no fitted order: $(tail -6 wp.txt)"
+# errors: one line, exit 1
+if "$PY" "$ROOT/analysis/work_precision.py" nothere.h5 > /dev/null 2> e.txt; then die "missing file accepted"; fi
+[ "$(wc -l < e.txt)" = 1 ] && grep -q "work_precision: error: nothere.h5: no such file" e.txt || die "$(cat e.txt)"
+
+# bad [sweep] sections
+bad() {
+    name=$1 pattern=$2
+    rm -f out.h5 out.h5.tmp-*
+    if "$GCPUSH" case.run > /dev/null 2> err.txt; then die "$name: accepted"; fi
+    [ "$(wc -l < err.txt)" = 1 ] || die "$name: more than one line: $(cat err.txt)"
+    grep -q -- "$pattern" err.txt || die "$name: '$(cat err.txt)' lacks '$pattern'"
+    [ -z "$(ls out.h5* 2>/dev/null)" ] || die "$name: output left behind"
+}
+sed 's/^methods   = .*/methods   = boris warp-drive/' sw.run > case.run
+bad "unknown method" "case.run:26: \[sweep\] methods: unknown method 'warp-drive'"
+sed 's/^dt        = .*/dt        = 0.1 0.05/' sw.run > case.run
+bad "dt without unit" "\[sweep\] dt: expected a time"
+sed 's/^dt        = .*/dt        = 0.1 x gyro/' sw.run > case.run
+bad "dt not a number" "\[sweep\] dt: expected a number, got 'x'"
+sed 's/^reference = .*/reference = boris-zu 1e-3/' sw.run > case.run
+bad "reference without unit" "\[sweep\] reference: fixed-step method 'boris-zu' takes a step"
+sed 's/^reference = .*/reference = gc-rk8pd 1e-3 gyro/' sw.run > case.run
+bad "adaptive reference with a step" "\[sweep\] reference: adaptive method 'gc-rk8pd' takes a tolerance"
+sed 's/^reference = .*/reference = analytic\ntolerance = 1e-8/' sw.run > case.run
+bad "tolerance without adaptive" "\[sweep\] tolerance: tolerance applies only to adaptive"
+sed 's/^reference = .*/reference = analytic\nrepeat = 3/' sw.run > case.run
+bad "unknown key" "\[sweep\] repeat"
+sed 's/^methods   = .*/methods   = gc-rk45/' sw.run > case.run
+bad "dt without fixed-step methods" "\[sweep\] dt: no fixed-step method in methods"
+sed 's/^methods   = .*/methods   = gc-rk45/; /^dt        = /d' sw.run > case.run
+bad "adaptive without tolerance" "\[sweep\] tolerance: required for the adaptive"
+sed 's/^file = out.h5/file = out.h5\ntrajectory = 10 samples/' sw.run > case.run
+bad "trajectory" "\[output\] trajectory: a sweep writes no trajectories"
+sed 's/^reference = .*/reference = analytic/; s/^field    = uniform/field    = dipole/; s/^B = 0 0 1e-3 T//; s/^position = 0 0 0 m/position = 4 0 0 RE/' sw.run > case.run
+bad "analytic in a dipole" "\[sweep\] reference: no analytic answer in field 'dipole'"
+echo "ok test_sweep"
