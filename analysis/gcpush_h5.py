@@ -171,6 +171,15 @@ def read_trajectories(f, rows=None):
     return out
 
 
+def read_table(f, name):
+    """An event table (/invariants/bounce, /invariants/drift, /invariants/mu, /losses, ...) as a
+    dict of numpy arrays (rows sorted by (id, t)), or None when the file has none."""
+    if name.strip("/") not in f:
+        return None
+    g = f[name.strip("/")]
+    return {k: np.asarray(g[k][()]) for k in g if not hasattr(g[k], "keys")}
+
+
 def kinetic_energy(u, mass):
     """Relativistic kinetic energy [J] from u = gamma v [m/s] (..., 3) and mass [kg]."""
     u = np.asarray(u, dtype=float)

@@ -13,6 +13,7 @@
 #include <mpi.h>
 
 #include "error.h"
+#include "invariants.h"
 #include "run.h"
 
 #ifdef __cplusplus
@@ -33,7 +34,11 @@ struct gcp_results {
     double *traj_t;        /* [s] (n x S), NaN after count */
     double *traj_x, *traj_u; /* [m], [m/s] (n x S x 3) */
     int64_t *traj_count;   /* valid samples per particle */
+    double *L0;            /* [1] dipole L of the initial guiding centre (NaN off a dipole) */
+    double *aeq0;          /* [rad] initial equatorial pitch angle (dipole mapping) */
+    double *alc0;          /* [rad] loss cone at L0 for the field's atmosphere */
     double rank_cpu;       /* [s] CPU time of this rank's pushing */
+    struct gcp_events ev;  /* invariant and loss events of these rows (invariants.h) */
 };
 
 void gcp_results_init(struct gcp_results *r, int64_t samples);

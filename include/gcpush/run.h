@@ -73,6 +73,8 @@ struct gcp_scene {
     char output[1024];      /* output file path */
     double checkpoint_every;/* [s] wall time between checkpoints; 0: only on SIGINT/SIGTERM */
     int64_t trajectory_samples; /* samples per particle, incl. the initial one (0: none) */
+    unsigned invariants;    /* [diagnostics] invariants: GCP_INV_* bits (invariants.h); 0: none */
+    unsigned events;        /* [diagnostics] events: GCP_EVT_* bits; 0: none */
 };
 
 /* Reads, validates and resolves a run file (field built, periods turned

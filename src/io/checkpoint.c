@@ -9,7 +9,8 @@
  *
  * Format (native byte order; the same machine family writes and reads):
  *   "GCPCKPT1", int64 S, int64 rows, int64 len, run text, int64 len, run path,
- *   double rank_cpu, then each column of struct gcp_results in table order. */
+ *   double rank_cpu, then each column of struct gcp_results in table order,
+ *   then int64 events and the events (struct gcp_event, invariants.h). */
 #include <errno.h>
 #include <glob.h>
 #include <stdio.h>
@@ -19,7 +20,7 @@
 #include "gcpush/io.h"
 #include "io_priv.h"
 
-static const char magic[8] = {'G', 'C', 'P', 'C', 'K', 'P', 'T', '1'};
+static const char magic[8] = {'G', 'C', 'P', 'C', 'K', 'P', 'T', '2'};
 
 static int put(FILE *fp, const void *p, size_t n) { return fwrite(p, 1, n, fp) == n ? 0 : -1; }
 static int get(FILE *fp, void *p, size_t n) { return fread(p, 1, n, fp) == n ? 0 : -1; }
@@ -41,6 +42,8 @@ int gcp_checkpoint_write(const struct gcp_scene *sc, struct gcp_results *r, int 
     const size_t nc = gcp_results_columns(r, c);
     for (size_t k = 0; k < nc && r->n; k++)
         bad |= put(fp, *c[k].data, (size_t)r->n * (size_t)c[k].per_row * c[k].elem);
+    bad |= put(fp, &r->ev.n, sizeof r->ev.n);
+    if (r->ev.n) bad |= put(fp, r->ev.e, (size_t)r->ev.n * sizeof *r->ev.e);
     bad |= fflush(fp) != 0;
     bad |= fclose(fp) != 0;
     if (bad || rename(tmp, path) != 0) {
@@ -133,6 +136,12 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
             bad = get(fp, *c[k].data, (size_t)rows * (size_t)c[k].per_row * c[k].elem);
         part.n = rows;
         part.rank_cpu = cpu;
+        int64_t nev = -1;
+        bad = bad || get(fp, &nev, sizeof nev) || nev < 0 || nev > ((int64_t)1 << 40);
+        for (int64_t k = 0; k < nev && !bad; k++) {
+            struct gcp_event e;
+            bad = get(fp, &e, sizeof e) || gcp_events_push(&part.ev, &e);
+        }
         for (int64_t i = 0; i < rows && !bad; i++)
             bad = part.id[i] < 0 || part.id[i] >= sc->total || part.pop[i] < 0 ||
                   (size_t)part.pop[i] >= sc->npop;
@@ -146,6 +155,12 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
         return gcp_error_set(err, GCP_ERR_IO,
                              "%s: truncated, corrupt, or from a different run file", file);
     return 0;
+}
+
+static int cmp_i64(const void *a, const void *b)
+{
+    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
 }
 
 void gcp_results_drop(struct gcp_results *r, const unsigned char *keep)
@@ -163,4 +178,16 @@ void gcp_results_drop(struct gcp_results *r, const unsigned char *keep)
         w++;
     }
     r->n = w;
+    /* events follow their particles: keep those whose id is still held */
+    if (!r->ev.n) return;
+    int64_t *ids = malloc((size_t)(w ? w : 1) * sizeof *ids);
+    if (!ids) return;
+    memcpy(ids, r->id, (size_t)w * sizeof *ids);
+    qsort(ids, (size_t)w, sizeof *ids, cmp_i64);
+    int64_t we = 0;
+    for (int64_t k = 0; k < r->ev.n; k++)
+        if (w && bsearch(&r->ev.e[k].id, ids, (size_t)w, sizeof *ids, cmp_i64))
+            r->ev.e[we++] = r->ev.e[k];
+    r->ev.n = we;
+    free(ids);
 }

@@ -23,6 +23,9 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
     COL_(status, 1);
     COL_(steps, 1);
     COL_(cpu, 1);
+    COL_(L0, 1);
+    COL_(aeq0, 1);
+    COL_(alc0, 1);
     if (S) {
         COL_(traj_t, S);
         COL_(traj_x, 3 * S);
@@ -86,6 +89,7 @@ int gcp_results_sort(struct gcp_results *r)
         free(tmp);
     }
     free(perm);
+    if (!rc) rc = gcp_events_sort(&r->ev);
     return rc;
 }
 
@@ -102,6 +106,8 @@ int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)
     }
     dst->n += src->n;
     dst->rank_cpu += src->rank_cpu;
+    for (int64_t k = 0; k < src->ev.n; k++)
+        if (gcp_events_push(&dst->ev, &src->ev.e[k])) return GCP_ERR_NOMEM;
     return 0;
 }
 
@@ -110,5 +116,6 @@ void gcp_results_free(struct gcp_results *r)
     struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(r, c);
     for (size_t k = 0; k < nc; k++) free(*c[k].data);
+    gcp_events_free(&r->ev);
     memset(r, 0, sizeof *r);
 }

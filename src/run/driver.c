@@ -7,6 +7,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "gcpush/invariants.h"
 #include "gcpush/io.h"
 #include "gcpush/run.h"
 
@@ -75,11 +76,35 @@ static void record(const struct gcp_block *b, double t, void *vctx)
     }
 }
 
+/* Trajectory samples and the invariant observer in one sampler: the
+ * observer sees every step, the trajectory every `every` steps. */
+struct multi_ctx {
+    struct gcp_observer *obs;
+    int64_t every, k; /* trajectory every `every` steps (0: none); steps seen */
+    struct traj_ctx *tc;
+};
+
+static void multi_sample(const struct gcp_block *b, double t, void *vctx)
+{
+    struct multi_ctx *c = vctx;
+    gcp_observer_sample(b, t, c->obs);
+    if (c->every && ++c->k % c->every == 0) record(b, t, c->tc);
+}
+
 int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
                    const struct gcp_schedule *sched, struct gcp_error *err)
 {
     struct gcp_block b;
     if (gcp_block_alloc(&b, GCP_CHUNK)) return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+    /* The observer exists only when [diagnostics] asks for something. */
+    struct gcp_observer *obs = NULL;
+    if (s->invariants || s->events) {
+        const struct gcp_observer_opts oo = {.invariants = s->invariants, .events = s->events};
+        if (gcp_observer_create(&obs, GCP_CHUNK, s->field, s->pusher, &oo)) {
+            gcp_block_free(&b);
+            return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+        }
+    }
     const double t0 = 0.0;
     const int64_t S = res->S;
     int64_t c;
@@ -89,6 +114,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (count <= 0) continue;
         if (gcp_results_reserve(res, count)) {
             gcp_block_free(&b);
+            gcp_observer_free(obs);
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for results");
         }
         const int64_t row0 = res->n;
@@ -107,6 +133,12 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             b.status[i] = 0;
             b.steps[i] = 0;
             b.t[i] = t0;
+            /* loss-cone classification at the start (dipole; NaN elsewhere) */
+            res->L0[row] = res->aeq0[row] = res->alc0[row] = NAN;
+            if (obs)
+                gcp_dipole_classify(s->field, s->pops[pop].species.charge,
+                                    s->pops[pop].species.mass, x, u, 0.0, 0.0, &res->L0[row],
+                                    &res->aeq0[row], &res->alc0[row]);
         }
         b.n = b.n_active = (size_t)count;
         b.q = s->pops[pop].species.charge;
@@ -119,13 +151,21 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             for (int64_t i = 0; i < count; i++) res->traj_count[row0 + i] = 0;
         }
         struct traj_ctx tc = {res, row0, 0};
-        const struct gcp_sampler sampler = {s->pops[pop].trajectory_every, record, &tc};
+        struct gcp_sampler sampler = {s->pops[pop].trajectory_every, record, &tc};
+        struct multi_ctx mc = {obs, S ? s->pops[pop].trajectory_every : 0, 0, &tc};
+        if (obs) sampler = (struct gcp_sampler){1, multi_sample, &mc};
         const double c0 = cpu_now();
         gcp_block_start(&b, s->field, t0);
         if (S) record(&b, t0, &tc);
+        if (obs) gcp_observer_begin(obs, &b, t0, first, &res->ev);
         const struct gcp_push_opts opts = {
             .t0 = t0, .dt = s->pops[pop].dt, .nsteps = s->pops[pop].nsteps};
-        s->pusher->advance(&b, s->field, s->pusher, &opts, S ? &sampler : NULL);
+        s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
+        if (obs && gcp_observer_end(obs, &b)) {
+            gcp_block_free(&b);
+            gcp_observer_free(obs);
+            return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for events");
+        }
         const double spent = cpu_now() - c0;
         res->rank_cpu += spent;
         int64_t total_steps = 0;
@@ -144,5 +184,6 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (sched->done) sched->done(sched->ctx, res, count, total_steps);
     }
     gcp_block_free(&b);
+    gcp_observer_free(obs);
     return 0;
 }

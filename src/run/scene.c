@@ -224,6 +224,42 @@ static int parse_trajectory(struct gcp_section *s, int64_t *every, int64_t *samp
                              "got '%.40s'", v);
 }
 
+/* A list of words, each one of names[] (bit k for names[k]); empty or
+ * "none": no bits.  A word twice is allowed (and means the same). */
+static int parse_words(struct gcp_section *s, const char *key, const char *const *names,
+                       unsigned *bits, struct gcp_error *err)
+{
+    *bits = 0;
+    const char *v = gcp_section_get(s, key, NULL);
+    if (!v) return 0;
+    char buf[256];
+    if (strlen(v) >= sizeof buf)
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "value too long");
+    strcpy(buf, v);
+    char list[128] = "";
+    for (size_t k = 0; names[k]; k++) {
+        strcat(list, k ? " " : "");
+        strcat(list, names[k]);
+    }
+    int nwords = 0, none = 0;
+    for (char *w = strtok(buf, " \t,"); w; w = strtok(NULL, " \t,")) {
+        nwords++;
+        if (strcmp(w, "none") == 0) {
+            none = 1;
+            continue;
+        }
+        size_t k = 0;
+        while (names[k] && strcmp(names[k], w) != 0) k++;
+        if (!names[k])
+            return gcp_section_error(s, key, err, GCP_ERR_VALUE,
+                                     "unknown word '%.32s' (any of: %s; or none)", w, list);
+        *bits |= 1u << k;
+    }
+    if (none && nwords > 1)
+        return gcp_section_error(s, key, err, GCP_ERR_VALUE, "'none' goes alone");
+    return 1;
+}
+
 static const char *const known_sections[] = {"scene", "field", "integrator", "diagnostics",
                                              "output", "sweep", NULL};
 
@@ -323,8 +359,7 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     struct gcp_section *fs = gcp_run_file_section(rf, "field");
     if (!gcp_field_type_lookup(sc->field_model))
         return gcp_section_error(s, "field", err, GCP_ERR_UNKNOWN,
-                                 "unknown field model '%s' (uniform, mirror, dipole, tokamak, grid, "
-                                 "eqdsk, igrf)",
+                                 "unknown field model '%s' (uniform, mirror, dipole, tokamak)",
                                  sc->field_model);
     if ((rc = gcp_field_from_section(sc->field_model, fs ? fs : &empty, &sc->field, err)) < 0)
         return rc;
@@ -362,15 +397,12 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
 
     s = gcp_run_file_section(rf, "diagnostics");
     if (s) {
-        for (size_t i = 0; i < s->n; i++) {
-            const char *v = s->kv[i].value;
-            while (isspace((unsigned char)*v)) v++;
-            if (*v)
-                return gcp_section_error(s, s->kv[i].key, err, GCP_ERR_VALUE,
-                                         "invariant and event tracking is not available in "
-                                         "this version; leave it empty");
-            s->kv[i].used = 1;
-        }
+        static const char *const inv_names[] = {"mu", "J", "K", "L", "energy", "pphi", NULL};
+        static const char *const evt_names[] = {"bounce", "drift", "loss", NULL};
+        if ((rc = parse_words(s, "invariants", inv_names, &sc->invariants, err)) < 0 ||
+            (rc = parse_words(s, "events", evt_names, &sc->events, err)) < 0)
+            return rc;
+        if ((rc = gcp_section_check_unused(s, "invariants events", err))) return rc;
     }
 
     s = gcp_run_file_section(rf, "output");

@@ -1,0 +1,160 @@
+/* gcpush/invariants.h -- adiabatic invariants and radiation-belt events.
+ *
+ * An observer follows every lane of a block, step by step (it is a
+ * gcp_sampler with every = 1), and turns the motion into events:
+ *
+ *   mirror points   p_par changes sign (linear interpolation of the
+ *                   guiding-centre stream); latitude, position, B_m.
+ *   bounce          two mirror points of the same kind (p_par + -> -, the
+ *                   first such pair after the start): bounce period, the
+ *                   second invariant J = oint p_par ds = int p_par v_par dt
+ *                   and K = J / (2 sqrt(2 m mu)) [T^1/2 m].
+ *   equator         the minimum of |B(X)| between two mirror points (the
+ *                   magnetic equator of the field line, wherever it is;
+ *                   parabolic interpolation): mu, energy, p_phi samples and
+ *                   the drift contour.
+ *   drift           the guiding centre's azimuth at successive equator
+ *                   points has turned by 2 pi (interpolated): drift period,
+ *                   the flux Phi = |oint A . dl| around the contour of
+ *                   equatorial guiding-centre points, and
+ *                   L* = 2 pi B0 R_E^2 / Phi (Roederer 1970).  In a pure
+ *                   dipole Phi = 2 pi B0 R_E^2 / L, so L* = L.
+ *   loss            the lane stopped (status != ALIVE); for PRECIPITATED
+ *                   and LEFT_DOMAIN through r_inner / r_outer the crossing
+ *                   of the sphere is interpolated within the last step.
+ *
+ * Guiding-centre pushers feed their own state (X, p_par, mu) in at every
+ * step.  Full-orbit pushers are turned into a guiding-centre stream first:
+ * each step goes through the first-order guiding-centre transformation
+ * (gcp_gc_from_fo: X = x - b x p/(qB), p_par and mu evaluated at X;
+ * Northrop 1963, Cary & Brizard 2009 sec. IV), and X, p_par, mu are then
+ * averaged over each gyration (trapezoid in t between gyrophase wraps,
+ * interpolated within the step; the phase is the angle swept by the
+ * gyroradius vector x - X).  Evaluating at X removes the O(eps) gradient
+ * oscillation of the raw p_perp^2/(2 m B(x)); the average over an exact
+ * gyro-period removes what is left of the first harmonic, so the reported
+ * mu is steady to O(eps^2) (eps = rho/L_B) where the raw value swings by
+ * O(eps).  One stream sample per gyration then goes through the same event
+ * logic as a guiding-centre step.
+ *
+ * Cost: nothing unless a run asks (the driver attaches no observer);
+ * asked, per step one block field evaluation (GC) or two scalar ones (FO).
+ */
+#ifndef GCPUSH_INVARIANTS_H
+#define GCPUSH_INVARIANTS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "field.h"
+#include "pusher.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* [diagnostics] invariants = mu J K L energy pphi */
+enum gcp_invariant_bits {
+    GCP_INV_MU = 1u,
+    GCP_INV_J = 2u,
+    GCP_INV_K = 4u,
+    GCP_INV_L = 8u,
+    GCP_INV_ENERGY = 16u,
+    GCP_INV_PPHI = 32u
+};
+/* [diagnostics] events = bounce drift loss */
+enum gcp_event_bits { GCP_EVT_BOUNCE = 1u, GCP_EVT_DRIFT = 2u, GCP_EVT_LOSS = 4u };
+
+/* Event tables (one HDF5 table each). */
+enum gcp_event_kind {
+    GCP_EVENT_BOUNCE = 0, /* v: period, J, K, lat1, lat2, Bm1, Bm2, x1[3], x2[3], mu */
+    GCP_EVENT_DRIFT = 1,  /* v: period, Lstar, Phi */
+    GCP_EVENT_MU = 2,     /* v: mu (at each equator point) */
+    GCP_EVENT_ENERGY = 3, /* v: kinetic energy [J] (at each equator point) */
+    GCP_EVENT_PPHI = 4,   /* v: p_phi [kg m^2/s] (at each equator point) */
+    GCP_EVENT_LOSS = 5,   /* status; v: x[3] */
+    GCP_EVENT_KINDS = 6
+};
+
+/* Value slots of a bounce event. */
+enum gcp_bounce_slot {
+    GCP_BOUNCE_PERIOD = 0, /* [s] time between the two mirror points of the same kind */
+    GCP_BOUNCE_J = 1,      /* [kg m^2/s] oint p_par ds */
+    GCP_BOUNCE_K = 2,      /* [T^1/2 m] J / (2 sqrt(2 m mu)) */
+    GCP_BOUNCE_LAT = 3,    /* [rad] latitudes of the two mirror points met during the bounce */
+    GCP_BOUNCE_BM = 5,     /* [T] |B| at those mirror points */
+    GCP_BOUNCE_X = 7,      /* [m] their positions (2 x 3) */
+    GCP_BOUNCE_MU = 13     /* [J/T] mu averaged over the bounce */
+};
+#define GCP_EVENT_NV 14
+
+struct gcp_event {
+    int64_t id;     /* particle id */
+    int32_t kind;   /* enum gcp_event_kind */
+    int32_t status; /* loss: enum gcp_status; else 0 */
+    double t;       /* [s] time of the event (end of a bounce / drift orbit) */
+    double v[GCP_EVENT_NV];
+};
+
+/* A growable event list. */
+struct gcp_events {
+    int64_t n, cap;
+    struct gcp_event *e;
+};
+
+/* Appends e; 0 or GCP_ERR_NOMEM. */
+int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e);
+void gcp_events_free(struct gcp_events *ev);
+/* Sorts by (id, kind, t) and drops exact repeats of (id, kind, t) (a
+ * particle pushed twice, e.g. once per checkpoint file, gives identical
+ * events). */
+int gcp_events_sort(struct gcp_events *ev);
+
+struct gcp_observer_opts {
+    unsigned invariants; /* GCP_INV_* */
+    unsigned events;     /* GCP_EVT_* */
+    double B0;           /* [T] reference dipole field at R_E for L* (0: GCP_EARTH_B0) */
+};
+
+struct gcp_observer;
+
+/* An observer for blocks of up to nlanes lanes pushed with p in f.
+ * Returns 0, or GCP_ERR_NOMEM. */
+int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct gcp_field *f,
+                        const struct gcp_pusher_type *p, const struct gcp_observer_opts *opts);
+void gcp_observer_free(struct gcp_observer *o);
+
+/* Starts observing block b (its lanes filled, gcp_block_start done) at t0;
+ * lane i is particle id0 + b->index[i] with charge b->q, mass b->m; events
+ * go to out (b->index[i] < nlanes).  Per-lane state
+ * is kept by b->index (stable under the stepper's lane swaps). */
+void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, double t0,
+                        int64_t id0, struct gcp_events *out);
+/* The sampler function (ctx = the observer): call after every step. */
+void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx);
+/* After the push: loss events for lanes that stopped and were not seen
+ * (e.g. at the start).  Returns 0, or GCP_ERR_NOMEM if an event was lost. */
+int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b);
+
+/* Equatorial pitch-angle classification at the start, dipole fields:
+ * from the first-order guiding centre of (x, u) (or X, p_par, mu for GC
+ * with u = NULL, x = X), L = r / (R_E cos^2 lat), the equatorial pitch
+ * angle sin^2 a_eq = sin^2 a B_eq / B(X) (mu conserved along the line), and
+ * the loss cone a_lc at L for an atmosphere at r_atm = R_E + h:
+ *   sin^2 a_lc = B_eq / B_foot,  B_eq = B0 / L^3,
+ *   B_foot = B0 (R_E / r_atm)^3 sqrt(1 + 3 sin^2 l_f),  cos^2 l_f = r_atm / (L R_E)
+ * (the foot of the field line r = L R_E cos^2 l at r_atm).  L = 4, h = 100 km:
+ * a_lc = 5.47 deg.  Returns 0, or GCP_ERR_STATE (results NaN) off a dipole. */
+int gcp_dipole_classify(const struct gcp_field *f, double q, double m, const double x[3],
+                        const double u[3], double ppar, double mu, double *L, double *alpha_eq,
+                        double *alpha_lc);
+/* The dipole loss cone alone [rad]: L [1], r_atm [m]. */
+double gcp_dipole_loss_cone(double L, double r_atm);
+/* The reference B0 [T] for L* in field f: |B(R_E, 0, 0)| for a dipole
+ * model, GCP_EARTH_B0 otherwise. */
+double gcp_observer_reference_B0(const struct gcp_field *f);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* GCPUSH_INVARIANTS_H */

@@ -1,0 +1,690 @@
+/* The invariant and event observer (contract and physics: invariants.h).
+ *
+ * Per lane, indexed by the lane's original index b->index[i] (stable under
+ * the stepper's lane swaps), the observer keeps:
+ *   - full orbit: the gyro-average in progress (phase swept by the
+ *     gyroradius vector x - X, trapezoid integrals of X, p_par, mu, p^2);
+ *   - the guiding-centre stream: the previous sample, the current
+ *     half-bounce (J integral, the three samples around min |B|), the
+ *     current bounce (mirror points, J, the mu integral), the drift contour
+ *     in progress (azimuth, oint A . dl);
+ *   - the last live position and time (loss interpolation).
+ *
+ * Accuracy of the stream integrals (GC samples every dt):
+ *   mirror point: p_par is linear in t through the mirror point: linear
+ *     interpolation of its zero, error O(dt^2);
+ *   J = int p_par^2 / (gamma m) dt: f = p_par^2/(gamma m) ~ c (t - t_m)^2 at
+ *     the mirror points, so the end pieces are integrated exactly for that
+ *     model (f(t_1) (t_1 - t_m) / 3) and the trapezoid between samples gets
+ *     the Euler-Maclaurin end correction -(h^2/12) [f'(t_n) - f'(t_1)] with
+ *     f'(t) = 2 f / (t - t_m): error O(h^4) relative instead of O(h^2);
+ *   equator: the vertex of the parabola through the three samples around the
+ *     smallest |B(X)|; quantities there by quadratic Lagrange interpolation
+ *     of scalars that are exactly constant on an axisymmetric drift shell
+ *     (psi = R A_phi, p_phi), so L* of a dipole is not degraded by the
+ *     interpolation;
+ *   Phi: trapezoid in the azimuth of A . dX/dphi around the contour of
+ *     equator points = sum over contour segments of
+ *     (psi_a + psi_b)/2 dphi + <A_R> dR + <A_z> dz; in an axisymmetric
+ *     field (A = A_phi phihat) it reduces to 2 pi psi for a closed contour,
+ *     whatever the spacing of the points.  The last segment is cut where
+ *     the azimuth has turned by exactly 2 pi (linear in the segment). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/error.h"
+#include "gcpush/gc.h"
+#include "gcpush/invariants.h"
+#include "gcpush/kernels.h"
+#include "gcpush/particles.h"
+
+/* One guiding-centre stream sample. */
+struct gsample {
+    double t;     /* [s] */
+    double X[3];  /* [m] guiding centre */
+    double ppar;  /* [kg m/s] */
+    double mu;    /* [J/T] */
+    double B;     /* [T] |B(X)| */
+    double p2;    /* [kg^2 m^2/s^2] p^2 */
+};
+
+/* A point of the drift contour (an equator point). */
+struct cpoint {
+    double t, phi, R, z; /* phi unwrapped along the contour */
+    double psi, AR, Az;  /* R A_phi [T m^2], A_R, A_z [T m] */
+};
+
+struct lane {
+    int active, loss_done;
+    double xprev[3], tprev;
+    /* full orbit: the gyration in progress */
+    int g_init, g_left;   /* g_left: the gyroradius has been on the far side of e1 */
+    double rho_prev[3], g_e1[3], g_e2[3], g_t0, g_tprev;
+    double g_acc[6], g_prev[6]; /* X[3], ppar, mu, p2 */
+    /* stream */
+    int have_s1;
+    struct gsample s1;
+    /* half-bounce */
+    int half_valid;  /* began at a mirror point */
+    double J_acc;    /* int p_par v_par dt of the half so far */
+    double eq_Bmin;
+    int eq_need_next, eq_has_prev, eq_valid;
+    struct gsample e0, e1, e2;
+    /* bounce */
+    int nm;          /* mirror points of the bounce in progress (0: none yet) */
+    double tb0, Jb, mub;
+    double lat[2], Bm[2], xm[2][3];
+    /* drift */
+    int c_n;
+    struct cpoint cprev;
+    double c_phi0, c_t0, c_acc;
+};
+
+struct gcp_observer {
+    const struct gcp_field *f;
+    const struct gcp_pusher_type *p;
+    struct gcp_observer_opts opts;
+    int gc;           /* guiding-centre pusher */
+    int stream;       /* any stream work at all */
+    int want_bounce, want_drift, want_eq;
+    double B0;        /* [T] reference for L* */
+    size_t nlanes;
+    struct lane *lane;
+    double *Bx, *By, *Bz; /* scratch: B at the lanes */
+    double *Xx, *Xy, *Xz, *Cx, *Cy, *Cz; /* full orbit: first-order guiding centre, B there */
+    int32_t *fst;
+    double q, m;
+    int64_t id0;
+    struct gcp_events *out;
+    int nomem;
+};
+
+int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
+{
+    if (ev->n == ev->cap) {
+        const int64_t cap = ev->cap ? 2 * ev->cap : 256;
+        struct gcp_event *p = realloc(ev->e, (size_t)cap * sizeof *p);
+        if (!p) return GCP_ERR_NOMEM;
+        ev->e = p;
+        ev->cap = cap;
+    }
+    ev->e[ev->n++] = *e;
+    return 0;
+}
+
+void gcp_events_free(struct gcp_events *ev)
+{
+    free(ev->e);
+    memset(ev, 0, sizeof *ev);
+}
+
+static int by_id_kind_t(const void *va, const void *vb)
+{
+    const struct gcp_event *a = va, *b = vb;
+    if (a->id != b->id) return (a->id > b->id) - (a->id < b->id);
+    if (a->kind != b->kind) return (a->kind > b->kind) - (a->kind < b->kind);
+    return (a->t > b->t) - (a->t < b->t);
+}
+
+int gcp_events_sort(struct gcp_events *ev)
+{
+    if (ev->n < 2) return 0;
+    qsort(ev->e, (size_t)ev->n, sizeof *ev->e, by_id_kind_t);
+    int64_t w = 1;
+    for (int64_t i = 1; i < ev->n; i++)
+        if (by_id_kind_t(&ev->e[i], &ev->e[w - 1]) != 0) ev->e[w++] = ev->e[i];
+    ev->n = w;
+    return 0;
+}
+
+static void emit(struct gcp_observer *o, const struct gcp_event *e)
+{
+    if (gcp_events_push(o->out, e)) o->nomem = 1;
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+double gcp_observer_reference_B0(const struct gcp_field *f)
+{
+    if (f && f->type == &gcp_field_dipole) {
+        const double x[3] = {GCP_EARTH_RADIUS, 0.0, 0.0};
+        struct gcp_field_sample s = {.need = GCP_NEED_B};
+        if (gcp_field_eval(f, 0.0, x, &s) == 0) return sqrt(dot3(s.B, s.B));
+    }
+    return GCP_EARTH_B0;
+}
+
+int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct gcp_field *f,
+                        const struct gcp_pusher_type *p, const struct gcp_observer_opts *opts)
+{
+    *out = NULL;
+    struct gcp_observer *o = calloc(1, sizeof *o);
+    if (!o) return GCP_ERR_NOMEM;
+    const size_t n = nlanes ? nlanes : 1;
+    o->lane = calloc(n, sizeof *o->lane);
+    o->Bx = calloc(n, sizeof(double));
+    o->By = calloc(n, sizeof(double));
+    o->Bz = calloc(n, sizeof(double));
+    o->fst = calloc(n, sizeof(int32_t));
+    double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz};
+    int fail = 0;
+    for (size_t k = 0; k < 6; k++) fail |= !(*v[k] = calloc(n, sizeof(double)));
+    if (fail || !o->lane || !o->Bx || !o->By || !o->Bz || !o->fst) {
+        gcp_observer_free(o);
+        return GCP_ERR_NOMEM;
+    }
+    o->f = f;
+    o->p = p;
+    o->opts = *opts;
+    o->nlanes = n;
+    o->gc = p->kind == GCP_GUIDING_CENTRE;
+    o->want_bounce = (opts->invariants & (GCP_INV_J | GCP_INV_K)) || (opts->events & GCP_EVT_BOUNCE);
+    o->want_drift = (opts->invariants & GCP_INV_L) || (opts->events & GCP_EVT_DRIFT);
+    o->want_eq = o->want_drift ||
+                 (opts->invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI));
+    o->stream = o->want_bounce || o->want_eq;
+    o->B0 = opts->B0 > 0 ? opts->B0 : gcp_observer_reference_B0(f);
+    *out = o;
+    return 0;
+}
+
+void gcp_observer_free(struct gcp_observer *o)
+{
+    if (!o) return;
+    free(o->lane);
+    free(o->Bx);
+    free(o->By);
+    free(o->Bz);
+    free(o->fst);
+    double *v[] = {o->Xx, o->Xy, o->Xz, o->Cx, o->Cy, o->Cz};
+    for (size_t k = 0; k < 6; k++) free(v[k]);
+    free(o);
+}
+
+/* ---- the guiding-centre stream ---------------------------------------- */
+
+static double gamma_m(const struct gcp_observer *o, double p2)
+{
+    return sqrt(o->m * o->m + p2 / (GCP_C_LIGHT * GCP_C_LIGHT));
+}
+
+/* p_par v_par = p_par^2 / (gamma m) [kg m^2/s^2... per s]: the J integrand. */
+static double jdot(const struct gcp_observer *o, const struct gsample *s)
+{
+    return s->ppar * s->ppar / gamma_m(o, s->p2);
+}
+
+static void lagrange3(double t0, double t1, double t2, double t, double w[3])
+{
+    w[0] = (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2));
+    w[1] = (t - t0) * (t - t2) / ((t1 - t0) * (t1 - t2));
+    w[2] = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1));
+}
+
+/* Contour quantities of one sample. */
+static void contour_of(const struct gcp_observer *o, const struct gsample *s, double *phi,
+                       double *R, double *psi, double *AR, double *Az)
+{
+    const double *X = s->X;
+    *R = hypot(X[0], X[1]);
+    *phi = atan2(X[1], X[0]);
+    double A[3];
+    if (gcp_gc_potential(o->f, s->t, X, A, NULL, NULL) || !(*R > 0)) {
+        *psi = *AR = *Az = NAN;
+        return;
+    }
+    const double Aphi = (-A[0] * X[1] + A[1] * X[0]) / *R;
+    *psi = *R * Aphi;
+    *AR = (A[0] * X[0] + A[1] * X[1]) / *R;
+    *Az = A[2];
+}
+
+static double wrap_pi(double a)
+{
+    while (a > GCP_PI) a -= 2.0 * GCP_PI;
+    while (a <= -GCP_PI) a += 2.0 * GCP_PI;
+    return a;
+}
+
+static void drift_point(struct gcp_observer *o, struct lane *L, int64_t id, struct cpoint P)
+{
+    if (L->c_n == 0) {
+        L->c_phi0 = P.phi;
+        L->c_t0 = P.t;
+        L->c_acc = 0.0;
+        L->cprev = P;
+        L->c_n = 1;
+        return;
+    }
+    const struct cpoint *a = &L->cprev;
+    const double dphi = wrap_pi(P.phi - a->phi);
+    P.phi = a->phi + dphi; /* unwrapped */
+    const double seg = 0.5 * (a->psi + P.psi) * dphi + 0.5 * (a->AR + P.AR) * (P.R - a->R) +
+                       0.5 * (a->Az + P.Az) * (P.z - a->z);
+    const double turned = P.phi - L->c_phi0;
+    if (fabs(turned) >= 2.0 * GCP_PI && dphi != 0.0) {
+        const double sgn = turned > 0 ? 1.0 : -1.0;
+        const double th = (sgn * 2.0 * GCP_PI - (a->phi - L->c_phi0)) / dphi;
+        const double tc = a->t + th * (P.t - a->t);
+        const double Phi = fabs(L->c_acc + th * seg);
+        struct gcp_event e = {.id = id, .kind = GCP_EVENT_DRIFT, .t = tc};
+        e.v[0] = tc - L->c_t0;
+        e.v[1] = 2.0 * GCP_PI * o->B0 * GCP_EARTH_RADIUS * GCP_EARTH_RADIUS / Phi;
+        e.v[2] = Phi;
+        emit(o, &e);
+        L->c_acc = (1.0 - th) * seg;
+        L->c_phi0 += sgn * 2.0 * GCP_PI;
+        L->c_t0 = tc;
+    } else {
+        L->c_acc += seg;
+    }
+    L->cprev = P;
+    L->c_n++;
+}
+
+/* The equator point of the half-bounce that just closed (e0, e1, e2). */
+static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
+{
+    const struct gsample *s[3] = {&L->e0, &L->e1, &L->e2};
+    const double t0 = s[0]->t, t1 = s[1]->t, t2 = s[2]->t;
+    const double a = (t1 - t0) * (s[1]->B - s[2]->B), c = (t1 - t2) * (s[1]->B - s[0]->B);
+    const double den = a - c;
+    double te = t1;
+    if (den != 0.0) te = t1 - 0.5 * ((t1 - t0) * a - (t1 - t2) * c) / den;
+    if (!(te >= t0 && te <= t2)) te = t1;
+    double w[3];
+    lagrange3(t0, t1, t2, te, w);
+    double mu = 0, p2 = 0, ppar = 0;
+    for (int k = 0; k < 3; k++) {
+        mu += w[k] * s[k]->mu;
+        p2 += w[k] * s[k]->p2;
+        ppar += w[k] * s[k]->ppar;
+    }
+    if (o->opts.invariants & GCP_INV_MU) {
+        struct gcp_event e = {.id = id, .kind = GCP_EVENT_MU, .t = te};
+        e.v[0] = mu;
+        emit(o, &e);
+    }
+    if (o->opts.invariants & GCP_INV_ENERGY) {
+        struct gcp_event e = {.id = id, .kind = GCP_EVENT_ENERGY, .t = te};
+        const double mc2 = o->m * GCP_C_LIGHT * GCP_C_LIGHT;
+        /* W = p^2 c^2 / (E + m c^2): no cancellation at small energies */
+        e.v[0] = p2 * GCP_C_LIGHT * GCP_C_LIGHT / (gamma_m(o, p2) * GCP_C_LIGHT * GCP_C_LIGHT + mc2);
+        emit(o, &e);
+    }
+    if (o->opts.invariants & GCP_INV_PPHI) {
+        struct gcp_event e = {.id = id, .kind = GCP_EVENT_PPHI, .t = te};
+        double v = 0;
+        for (int k = 0; k < 3; k++) {
+            double pp;
+            gcp_gc_pphi(o->f, s[k]->t, o->q, s[k]->X, s[k]->ppar, &pp);
+            v += w[k] * pp;
+        }
+        e.v[0] = v;
+        emit(o, &e);
+    }
+    if (o->want_drift) {
+        double phi[3], R[3], psi[3], AR[3], Az[3];
+        for (int k = 0; k < 3; k++) contour_of(o, s[k], &phi[k], &R[k], &psi[k], &AR[k], &Az[k]);
+        struct cpoint P = {.t = te};
+        for (int k = 0; k < 3; k++) {
+            const double ph = phi[1] + wrap_pi(phi[k] - phi[1]);
+            P.phi += w[k] * ph;
+            P.R += w[k] * R[k];
+            P.z += w[k] * s[k]->X[2];
+            P.psi += w[k] * psi[k];
+            P.AR += w[k] * AR[k];
+            P.Az += w[k] * Az[k];
+        }
+        P.phi = wrap_pi(P.phi);
+        drift_point(o, L, id, P);
+    }
+}
+
+/* A mirror point between s1 and s at fraction th. */
+static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s,
+                   double th)
+{
+    const struct gsample *a = &L->s1;
+    const double tm = a->t + th * (s->t - a->t);
+    double xm[3];
+    for (int k = 0; k < 3; k++) xm[k] = a->X[k] + th * (s->X[k] - a->X[k]);
+    const double mum = a->mu + th * (s->mu - a->mu);
+    /* B_m = p^2 / (2 m mu) where p_par = 0 (interpolating a near-constant) */
+    const double Bma = a->mu > 0 ? a->p2 / (2.0 * o->m * a->mu) : NAN;
+    const double Bmb = s->mu > 0 ? s->p2 / (2.0 * o->m * s->mu) : NAN;
+    const double Bm = Bma + th * (Bmb - Bma);
+    const double lat = asin(xm[2] / sqrt(dot3(xm, xm)));
+    /* close the half-bounce: end piece and Euler-Maclaurin correction */
+    const double h = s->t - a->t, fa = jdot(o, a), da = tm - a->t;
+    double Jh = L->J_acc;
+    if (da > 0) Jh += fa * da / 3.0 + h * h / 12.0 * 2.0 * fa / da;
+    /* the mu integral: the piece up to the mirror point */
+    L->mub += 0.5 * (a->mu + mum) * (tm - a->t);
+    if (L->half_valid && L->eq_valid && !L->eq_need_next && o->want_eq) equator(o, L, id);
+    if (L->nm >= 1 && L->half_valid) {
+        L->Jb += Jh;
+        const int k = L->nm - 1;
+        L->lat[k] = lat;
+        L->Bm[k] = Bm;
+        memcpy(L->xm[k], xm, sizeof xm);
+        L->nm++;
+        if (L->nm == 3) {
+            const double T = tm - L->tb0;
+            const double mubar = L->mub / T;
+            struct gcp_event e = {.id = id, .kind = GCP_EVENT_BOUNCE, .t = tm};
+            e.v[GCP_BOUNCE_PERIOD] = T;
+            e.v[GCP_BOUNCE_J] = L->Jb;
+            e.v[GCP_BOUNCE_K] = L->Jb / (2.0 * sqrt(2.0 * o->m * mubar));
+            e.v[GCP_BOUNCE_LAT] = L->lat[0];
+            e.v[GCP_BOUNCE_LAT + 1] = L->lat[1];
+            e.v[GCP_BOUNCE_BM] = L->Bm[0];
+            e.v[GCP_BOUNCE_BM + 1] = L->Bm[1];
+            memcpy(&e.v[GCP_BOUNCE_X], L->xm[0], 3 * sizeof(double));
+            memcpy(&e.v[GCP_BOUNCE_X + 3], L->xm[1], 3 * sizeof(double));
+            e.v[GCP_BOUNCE_MU] = mubar;
+            if (o->want_bounce) emit(o, &e);
+            L->nm = 1;
+        }
+    } else {
+        L->nm = 1;
+    }
+    if (L->nm == 1) {
+        L->tb0 = tm;
+        L->Jb = 0.0;
+        L->mub = 0.0;
+    }
+    /* open the next half at the mirror point: start piece from s */
+    const double fs = jdot(o, s), ds = s->t - tm;
+    L->J_acc = ds > 0 ? fs * ds / 3.0 + h * h / 12.0 * 2.0 * fs / ds : 0.0;
+    L->mub += 0.5 * (mum + s->mu) * (s->t - tm);
+    L->half_valid = 1;
+    L->eq_Bmin = INFINITY;
+    L->eq_valid = L->eq_need_next = 0;
+    L->eq_has_prev = 0;
+}
+
+static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
+                          const struct gsample *s)
+{
+    int first_of_half = !L->have_s1;
+    if (L->have_s1) {
+        const struct gsample *a = &L->s1;
+        if ((a->ppar > 0) != (s->ppar > 0)) {
+            const double dp = a->ppar - s->ppar;
+            const double th = dp != 0.0 ? a->ppar / dp : 1.0;
+            mirror(o, L, id, s, fmin(fmax(th, 0.0), 1.0));
+            first_of_half = 1;
+        } else {
+            L->J_acc += 0.5 * (jdot(o, a) + jdot(o, s)) * (s->t - a->t);
+            L->mub += 0.5 * (a->mu + s->mu) * (s->t - a->t);
+        }
+    }
+    if (o->want_eq) {
+        if (s->B < L->eq_Bmin) {
+            L->eq_Bmin = s->B;
+            L->e0 = L->s1;
+            L->e1 = *s;
+            L->eq_has_prev = !first_of_half;
+            L->eq_need_next = 1;
+            L->eq_valid = 0;
+        } else if (L->eq_need_next) {
+            L->e2 = *s;
+            L->eq_need_next = 0;
+            L->eq_valid = L->eq_has_prev;
+        }
+    }
+    L->s1 = *s;
+    L->have_s1 = 1;
+}
+
+/* Full orbit: one step into the gyro-average; emits a stream sample at each
+ * completed gyration.  X, p_par, mu: the first-order guiding centre of this
+ * step (computed for the block in observe_live); rho = x - X; bx: b(x).
+ * A gyration ends where the gyroradius vector crosses the half-plane
+ * spanned by b and e1 (e1: its direction when the gyration began) again,
+ * after having been on the far side: rho.e2 changes sign with rho.e1 > 0,
+ * e2 = b x e1; the crossing is linear in the step. */
+static void fo_step(struct gcp_observer *o, struct lane *L, int64_t id, double t,
+                    const double v[6], const double rho[3], const double bx[3])
+{
+    if (!L->g_init) {
+        L->g_init = 1;
+        L->g_left = 0;
+        memcpy(L->rho_prev, rho, 3 * sizeof(double));
+        memcpy(L->g_prev, v, 6 * sizeof(double));
+        memset(L->g_acc, 0, sizeof L->g_acc);
+        L->g_t0 = L->g_tprev = t;
+        const double r = sqrt(dot3(rho, rho));
+        for (int k = 0; k < 3; k++) L->g_e1[k] = r > 0 ? rho[k] / r : 0.0;
+        const double *e = L->g_e1;
+        L->g_e2[0] = bx[1] * e[2] - bx[2] * e[1];
+        L->g_e2[1] = bx[2] * e[0] - bx[0] * e[2];
+        L->g_e2[2] = bx[0] * e[1] - bx[1] * e[0];
+        return;
+    }
+    const double dt = t - L->g_tprev;
+    const double a = dot3(L->rho_prev, L->g_e2), c = dot3(rho, L->g_e2);
+    if (dot3(rho, L->g_e1) < 0) L->g_left = 1;
+    int wrap = 0;
+    double th = 0;
+    if (L->g_left && ((a < 0 && c >= 0) || (a > 0 && c <= 0))) {
+        th = a / (a - c);
+        double rw[3];
+        for (int k = 0; k < 3; k++) rw[k] = L->rho_prev[k] + th * (rho[k] - L->rho_prev[k]);
+        wrap = dot3(rw, L->g_e1) > 0;
+    }
+    if (wrap) {
+        const double tw = L->g_tprev + th * dt;
+        double vw[6];
+        for (int k = 0; k < 6; k++) {
+            vw[k] = L->g_prev[k] + th * (v[k] - L->g_prev[k]);
+            L->g_acc[k] += 0.5 * (L->g_prev[k] + vw[k]) * (tw - L->g_tprev);
+        }
+        const double T = tw - L->g_t0;
+        if (T > 0) {
+            struct gsample s = {.t = 0.5 * (L->g_t0 + tw)};
+            for (int k = 0; k < 3; k++) s.X[k] = L->g_acc[k] / T;
+            s.ppar = L->g_acc[3] / T;
+            s.mu = L->g_acc[4] / T;
+            s.p2 = L->g_acc[5] / T;
+            struct gcp_field_sample fs = {.need = GCP_NEED_B};
+            gcp_field_eval(o->f, s.t, s.X, &fs);
+            s.B = sqrt(dot3(fs.B, fs.B));
+            stream_sample(o, L, id, &s);
+        }
+        for (int k = 0; k < 6; k++) L->g_acc[k] = 0.5 * (vw[k] + v[k]) * (t - tw);
+        L->g_t0 = tw;
+        L->g_left = 0;
+        /* e1, e2 follow the slowly turning field: e2 = b x e1 from this step */
+        const double *e = L->g_e1;
+        double e2[3] = {bx[1] * e[2] - bx[2] * e[1], bx[2] * e[0] - bx[0] * e[2],
+                        bx[0] * e[1] - bx[1] * e[0]};
+        memcpy(L->g_e2, e2, sizeof e2);
+    } else {
+        for (int k = 0; k < 6; k++) L->g_acc[k] += 0.5 * (L->g_prev[k] + v[k]) * dt;
+    }
+    memcpy(L->rho_prev, rho, 3 * sizeof(double));
+    memcpy(L->g_prev, v, 6 * sizeof(double));
+    L->g_tprev = t;
+}
+
+/* ---- losses ------------------------------------------------------------ */
+
+static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struct gcp_block *b,
+                 size_t i)
+{
+    L->loss_done = 1;
+    if (!(o->opts.events & GCP_EVT_LOSS)) return;
+    const double xe[3] = {b->x[i], b->y[i], b->z[i]};
+    struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
+    memcpy(e.v, xe, sizeof xe);
+    /* the crossing of the sphere r = r_inner (or r_outer) within the last
+     * step, linear in the step: r(th) ~ |xprev + th (xe - xprev)| */
+    double rs = NAN;
+    if (b->status[i] == GCP_PRECIPITATED) rs = o->f->r_inner;
+    if (b->status[i] == GCP_LEFT_DOMAIN && isfinite(o->f->r_outer)) rs = o->f->r_outer;
+    const double r0 = sqrt(dot3(L->xprev, L->xprev)), r1 = sqrt(dot3(xe, xe));
+    if (isfinite(rs) && L->tprev < b->t[i] && (r0 - rs) * (r1 - rs) <= 0 && r0 != r1) {
+        /* solve |xprev + th d|^2 = rs^2 for th in [0, 1] */
+        double d[3];
+        for (int k = 0; k < 3; k++) d[k] = xe[k] - L->xprev[k];
+        const double A = dot3(d, d), B = 2.0 * dot3(L->xprev, d), C = r0 * r0 - rs * rs;
+        const double disc = sqrt(fmax(B * B - 4.0 * A * C, 0.0));
+        double th = (r1 < r0) ? (-B - disc) / (2.0 * A) : (-B + disc) / (2.0 * A);
+        if (!(th >= 0.0 && th <= 1.0)) th = (r0 - rs) / (r0 - r1);
+        for (int k = 0; k < 3; k++) e.v[k] = L->xprev[k] + th * d[k];
+        e.t = L->tprev + th * (b->t[i] - L->tprev);
+    }
+    emit(o, &e);
+}
+
+/* ---- the sampler ------------------------------------------------------- */
+
+static void observe_live(struct gcp_observer *o, const struct gcp_block *b, double t)
+{
+    const size_t n = b->n_active;
+    if (o->stream && n) {
+        memset(o->fst, 0, n * sizeof(int32_t));
+        o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
+                               NULL, o->fst);
+    }
+    if (o->stream && !o->gc && n) {
+        /* first-order guiding centre of every lane (gcp_gc_from_fo, as a
+         * block): rho = b x p / (q B) at x, X = x - rho; B at X next */
+        const double m = o->m, qi = 1.0 / o->q;
+        for (size_t i = 0; i < n; i++) {
+            const double B2 = o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i];
+            const double s = m * qi / B2; /* b x p /(q B) = B x u m /(q B^2) */
+            const double rx = s * (o->By[i] * b->uz[i] - o->Bz[i] * b->uy[i]);
+            const double ry = s * (o->Bz[i] * b->ux[i] - o->Bx[i] * b->uz[i]);
+            const double rz = s * (o->Bx[i] * b->uy[i] - o->By[i] * b->ux[i]);
+            o->Xx[i] = b->x[i] - rx, o->Xy[i] = b->y[i] - ry, o->Xz[i] = b->z[i] - rz;
+        }
+        o->f->type->eval_block(o->f, t, n, o->Xx, o->Xy, o->Xz, o->Cx, o->Cy, o->Cz, NULL, NULL,
+                               NULL, o->fst);
+    }
+    for (size_t i = 0; i < n; i++) {
+        const size_t li = b->index[i];
+        struct lane *L = &o->lane[li];
+        if (!L->active) continue;
+        const int64_t id = o->id0 + (int64_t)li;
+        if (o->stream) {
+            if (o->gc) {
+                struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]}, .ppar = b->ppar[i],
+                                    .mu = b->mu[i]};
+                s.B = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
+                s.p2 = s.ppar * s.ppar + 2.0 * o->m * s.mu * s.B;
+                stream_sample(o, L, id, &s);
+            } else {
+                const double m = o->m;
+                const double p[3] = {m * b->ux[i], m * b->uy[i], m * b->uz[i]};
+                const double BX = sqrt(o->Cx[i] * o->Cx[i] + o->Cy[i] * o->Cy[i] + o->Cz[i] * o->Cz[i]);
+                const double pp = (p[0] * o->Cx[i] + p[1] * o->Cy[i] + p[2] * o->Cz[i]) / BX;
+                const double p2 = dot3(p, p);
+                const double v[6] = {o->Xx[i], o->Xy[i], o->Xz[i], pp,
+                                     fmax(p2 - pp * pp, 0.0) / (2.0 * m * BX), p2};
+                const double rho[3] = {b->x[i] - o->Xx[i], b->y[i] - o->Xy[i], b->z[i] - o->Xz[i]};
+                const double Bm = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
+                const double bx[3] = {o->Bx[i] / Bm, o->By[i] / Bm, o->Bz[i] / Bm};
+                fo_step(o, L, id, t, v, rho, bx);
+            }
+        }
+        L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
+        L->tprev = t;
+    }
+}
+
+void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, double t0,
+                        int64_t id0, struct gcp_events *out)
+{
+    o->out = out;
+    o->id0 = id0;
+    o->q = b->q;
+    o->m = b->m;
+    for (size_t i = 0; i < b->n; i++) {
+        const size_t li = b->index[i];
+        if (li >= o->nlanes) continue;
+        struct lane *L = &o->lane[li];
+        memset(L, 0, sizeof *L);
+        L->active = 1;
+        L->eq_Bmin = INFINITY;
+        L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
+        L->tprev = t0;
+    }
+    observe_live(o, b, t0);
+}
+
+void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
+{
+    struct gcp_observer *o = ctx;
+    /* lanes that stopped in this step: just past the live range */
+    for (size_t i = b->n_active; i < b->n; i++) {
+        const size_t li = b->index[i];
+        struct lane *L = &o->lane[li];
+        if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
+            loss(o, L, o->id0 + (int64_t)li, b, i);
+    }
+    observe_live(o, b, t);
+}
+
+int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b)
+{
+    for (size_t i = 0; i < b->n; i++) {
+        const size_t li = b->index[i];
+        struct lane *L = &o->lane[li];
+        if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
+            loss(o, L, o->id0 + (int64_t)li, b, i);
+        L->active = 0;
+    }
+    const int bad = o->nomem;
+    o->nomem = 0;
+    return bad ? GCP_ERR_NOMEM : 0;
+}
+
+/* ---- loss-cone classification ------------------------------------------ */
+
+double gcp_dipole_loss_cone(double L, double r_atm)
+{
+    const double RE = GCP_EARTH_RADIUS;
+    const double c2 = r_atm / (L * RE); /* cos^2 of the foot latitude */
+    if (!(c2 > 0) || c2 >= 1.0) return NAN;
+    const double s2 = 1.0 - c2;
+    const double a = RE / r_atm;
+    const double bfoot = a * a * a * sqrt(1.0 + 3.0 * s2); /* B_foot / B0 */
+    const double beq = 1.0 / (L * L * L);                  /* B_eq / B0 */
+    return asin(sqrt(beq / bfoot));
+}
+
+int gcp_dipole_classify(const struct gcp_field *f, double q, double m, const double x[3],
+                        const double u[3], double ppar, double mu, double *L, double *alpha_eq,
+                        double *alpha_lc)
+{
+    *L = *alpha_eq = *alpha_lc = NAN;
+    if (!f || f->type != &gcp_field_dipole) return GCP_ERR_STATE;
+    double X[3], pp = ppar, mm = mu, p2;
+    if (u) {
+        if (gcp_gc_from_fo(f, 0.0, q, m, x, u, X, &pp, &mm)) return GCP_ERR_STATE;
+        p2 = m * m * dot3(u, u);
+    } else {
+        memcpy(X, x, sizeof X);
+    }
+    struct gcp_field_sample s = {.need = GCP_NEED_B};
+    if (gcp_field_eval(f, 0.0, X, &s)) return GCP_ERR_STATE;
+    const double B = sqrt(dot3(s.B, s.B));
+    if (!u) p2 = pp * pp + 2.0 * m * mm * B;
+    const double r = sqrt(dot3(X, X));
+    const double cl2 = 1.0 - X[2] * X[2] / (r * r);
+    const double B0 = gcp_observer_reference_B0(f);
+    *L = r / (GCP_EARTH_RADIUS * cl2);
+    const double Beq = B0 / (*L * *L * *L);
+    const double sin2 = p2 > 0 ? 2.0 * m * mm / p2 * Beq : NAN; /* sin^2 a B_eq / B */
+    *alpha_eq = asin(sqrt(fmin(fmax(sin2, 0.0), 1.0)));
+    *alpha_lc = f->r_inner > 0 ? gcp_dipole_loss_cone(*L, f->r_inner) : 0.0;
+    (void)B;
+    return 0;
+}
