@@ -123,7 +123,7 @@ $(UNIT): $(TEST_OBJ) $(LIBA)
 run: deps
 	@$(MAKE) --no-print-directory build
 	./$(BIN) runs/dipole.run
-	$(PY) analysis/plot_orbits.py dipole.h5 -o dipole.png
+	$(PY) analysis/plot_orbits.py dipole.h5 -o dipole.png --max 12
 	@echo "output: $$(pwd)/dipole.h5   plot: $$(pwd)/dipole.png"
 
 check: deps

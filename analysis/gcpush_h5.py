@@ -112,7 +112,9 @@ def read_particles(f):
     """Per-particle arrays (all length N, SI), as a dict:
 
     id, species (numpy str array), charge [C], mass [kg], x0 (N,3) [m], u0 (N,3) [m/s],
-    t (N) [s], x (N,3) [m], u (N,3) [m/s], status (N) int, status_names (list)."""
+    t (N) [s], x (N,3) [m], u (N,3) [m/s], status (N) int, status_names (list);
+    gc (bool): a guiding-centre run, whose x is the final guiding centre X, with
+    ppar [kg m/s] and mu [J/T] and u all NaN."""
     require(f, "particles")
     p = {}
     p["id"] = np.asarray(require(f, "particles/id")[()], dtype=np.int64)
@@ -123,8 +125,16 @@ def read_particles(f):
     p["x0"] = np.asarray(require(f, "particles/initial/x")[()], dtype=float).reshape(-1, 3)
     p["u0"] = np.asarray(require(f, "particles/initial/u")[()], dtype=float).reshape(-1, 3)
     p["t"] = np.asarray(require(f, "particles/final/t")[()], dtype=float)
-    p["x"] = np.asarray(require(f, "particles/final/x")[()], dtype=float).reshape(-1, 3)
-    p["u"] = np.asarray(require(f, "particles/final/u")[()], dtype=float).reshape(-1, 3)
+    # a guiding-centre run ends with X, p_par, mu instead of x, u (u is NaN then)
+    p["gc"] = "particles/final/X" in f
+    if p["gc"]:
+        p["x"] = np.asarray(f["particles/final/X"][()], dtype=float).reshape(-1, 3)
+        p["ppar"] = np.asarray(require(f, "particles/final/ppar")[()], dtype=float)
+        p["mu"] = np.asarray(require(f, "particles/final/mu")[()], dtype=float)
+        p["u"] = np.full_like(p["x"], np.nan)
+    else:
+        p["x"] = np.asarray(require(f, "particles/final/x")[()], dtype=float).reshape(-1, 3)
+        p["u"] = np.asarray(require(f, "particles/final/u")[()], dtype=float).reshape(-1, 3)
     p["status"] = np.asarray(require(f, "particles/final/status")[()], dtype=np.int64)
     p["status_names"] = status_names(f)
     n = len(p["id"])

@@ -22,6 +22,7 @@ sys.dont_write_bytecode = True          # no __pycache__ in the source tree
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import gcpush_h5 as g5  # noqa: E402
 
+import h5py
 import numpy as np  # noqa: E402
 
 PROG = "plot_orbits"
@@ -471,12 +472,16 @@ def make_plot(d, out_png, path):
     # title
     scene = meta.get("scene") or meta.get("run_file_name") or os.path.basename(path)
     method = meta.get("method", "?")
-    dt = meta.get("dt")
-    try:
-        dt = float(dt)
-    except (TypeError, ValueError):
-        dt = None
-    dts = ("dt = " + si(dt, "s")) if dt is not None and np.isfinite(dt) and dt > 0 else "adaptive dt"
+    # /particles/dt: each particle's step (one per population)
+    with h5py.File(path, "r") as fdt:
+        pdt = np.asarray(fdt["particles/dt"][()], dtype=float) if "particles/dt" in fdt else np.array([])
+    pdt = pdt[np.isfinite(pdt) & (pdt > 0)]
+    if pdt.size and pdt.min() == pdt.max():
+        dts = "dt = " + si(pdt[0], "s")
+    elif pdt.size:
+        dts = "dt = %s .. %s" % (si(pdt.min(), "s"), si(pdt.max(), "s"))
+    else:
+        dts = "dt not recorded"
     line1 = "%s \u2014 %s field, %s, %s" % (scene, meta.get("field", "?"), method, dts)
     tot_lost = int(np.sum(p["status"] != g5.ALIVE))
     line2 = "%d of %d particles shown" % (len(sel), d["n"])

@@ -23,16 +23,20 @@ extern "C" {
 struct gcp_results {
     int64_t n, cap;        /* rows held, rows allocated */
     int64_t S;             /* trajectory samples per particle (0: none) */
+    int gc;                /* [bool] guiding-centre rows: X in x, p_par and mu instead of u */
     int64_t *id;           /* particle id of each row */
     int32_t *pop;          /* population index */
     double *x0, *u0;       /* [m], [m/s] initial state (n x 3) */
     double *t;             /* [s] final time */
-    double *x, *u;         /* [m], [m/s] final state (n x 3) */
+    double *x, *u;         /* [m], [m/s] final state (n x 3); guiding centre: x is X, no u */
+    double *X0, *ppar0, *mu0; /* [m], [kg m/s], [J/T] initial guiding centre (gc only) */
+    double *ppar, *mu;     /* [kg m/s], [J/T] final guiding centre (gc only) */
     int32_t *status;       /* enum gcp_status */
     int64_t *steps;        /* steps taken */
     double *cpu;           /* [s] CPU time per particle */
     double *traj_t;        /* [s] (n x S), NaN after count */
-    double *traj_x, *traj_u; /* [m], [m/s] (n x S x 3) */
+    double *traj_x, *traj_u; /* [m], [m/s] (n x S x 3); traj_u full orbit only */
+    double *traj_ppar;     /* [kg m/s] (n x S), guiding centre only */
     int64_t *traj_count;   /* valid samples per particle */
     double *L0;            /* [1] dipole L of the initial guiding centre (NaN off a dipole) */
     double *aeq0;          /* [rad] initial equatorial pitch angle (dipole mapping) */
@@ -41,7 +45,8 @@ struct gcp_results {
     struct gcp_events ev;  /* invariant and loss events of these rows (invariants.h) */
 };
 
-void gcp_results_init(struct gcp_results *r, int64_t samples);
+/* gc: rows of a guiding-centre pusher (the columns differ). */
+void gcp_results_init(struct gcp_results *r, int64_t samples, int gc);
 /* Makes room for `more` rows; returns 0 or GCP_ERR_NOMEM. */
 int gcp_results_reserve(struct gcp_results *r, int64_t more);
 /* Sorts rows by particle id (the writer needs them in file order). */

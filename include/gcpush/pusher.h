@@ -60,6 +60,7 @@ struct gcp_pusher_type {
     const char *name;          /* run-file name: "boris", "vay", ... */
     const char *doc;           /* one line for --help, with the reference */
     int order;                 /* global order of accuracy in dt */
+    int adaptive;              /* [bool] chooses its own steps (takes a tolerance) */
     enum gcp_pusher_kind kind;
     gcp_kick_batch_fn kick;    /* full orbit: the momentum update (NULL for guiding centre) */
     gcp_advance_fn advance;    /* the block push: every pusher has one */

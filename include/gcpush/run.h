@@ -68,6 +68,9 @@ struct gcp_scene {
     double duration;        /* [s] resolved run time */
     double duration_given;  /* as written: seconds or periods */
     enum gcp_period duration_period;
+    double tolerance;       /* [1] adaptive methods: relative error per step (0: the method's default) */
+    double adiabaticity_max;/* [1] guiding centre: eps = rho |grad B|/B (or rho/R_c) above which a
+                               particle is NONADIABATIC */
     double dt_given;
     enum gcp_period dt_period;
     char output[1024];      /* output file path */
@@ -79,9 +82,9 @@ struct gcp_scene {
 
 /* Reads, validates and resolves a run file (field built, periods turned
  * into seconds: the duration with the first particle's period; a step in
- * gyro periods with the shortest initial gyro period of each population,
- * so every particle gets at least the asked resolution; a step in bounce or
- * drift periods with each population's first particle).  Returns 0 or a negative code
+ * periods with the shortest initial period in each population (gyro: over
+ * all its particles; bounce, drift: over its first 1000), so every particle
+ * gets at least the asked resolution).  Returns 0 or a negative code
  * with err set; *out is NULL on error. */
 int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *err);
 /* The same from text in memory (path is used in messages only). */

@@ -126,7 +126,7 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
     int64_t S, rows;
     double cpu;
     struct gcp_results part;
-    gcp_results_init(&part, r->S);
+    gcp_results_init(&part, r->S, r->gc);
     int bad = read_header(fp, &text, &path, &S, &rows, &cpu);
     bad = bad || strcmp(text, sc->text) != 0 || S != r->S || gcp_results_reserve(&part, rows);
     if (!bad) {

@@ -174,11 +174,22 @@ static void write_particles(struct writer *w, const struct gcp_scene *sc)
     hid_t gi = group(w, g, "initial");
     write_rows(w, gi, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x0);
     write_rows(w, gi, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u0);
+    if (r->gc) { /* the guiding centre made from the full-orbit start above */
+        write_rows(w, gi, "X", H5T_NATIVE_DOUBLE, 2, 3, 0, r->X0);
+        write_rows(w, gi, "ppar", H5T_NATIVE_DOUBLE, 1, 0, 0, r->ppar0);
+        write_rows(w, gi, "mu", H5T_NATIVE_DOUBLE, 1, 0, 0, r->mu0);
+    }
     H5Gclose(gi);
     hid_t gf = group(w, g, "final");
     write_rows(w, gf, "t", H5T_NATIVE_DOUBLE, 1, 0, 0, r->t);
-    write_rows(w, gf, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x);
-    write_rows(w, gf, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u);
+    if (r->gc) {
+        write_rows(w, gf, "X", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x);
+        write_rows(w, gf, "ppar", H5T_NATIVE_DOUBLE, 1, 0, 0, r->ppar);
+        write_rows(w, gf, "mu", H5T_NATIVE_DOUBLE, 1, 0, 0, r->mu);
+    } else {
+        write_rows(w, gf, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x);
+        write_rows(w, gf, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u);
+    }
     write_rows(w, gf, "status", H5T_NATIVE_INT32, 1, 0, 0, r->status);
     /* the status code -> name table, in code order */
     {
@@ -203,7 +214,8 @@ static void write_trajectories(struct writer *w)
     hid_t d2 = trajectory_dcpl(r, w->total, 2), d3 = trajectory_dcpl(r, w->total, 3);
     write_rows_dcpl(w, g, "t", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_t, d2);
     write_rows_dcpl(w, g, "x", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_x, d3);
-    write_rows_dcpl(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u, d3);
+    if (r->gc) write_rows_dcpl(w, g, "ppar", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_ppar, d2);
+    else write_rows_dcpl(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u, d3);
     H5Pclose(d2);
     H5Pclose(d3);
     write_rows(w, g, "count", H5T_NATIVE_INT64, 1, 0, 0, r->traj_count);

@@ -201,6 +201,7 @@ static size_t gc_rk8pd_advance(struct gcp_block *b, const struct gcp_field *f,
 const struct gcp_pusher_type gcp_pusher_gc_rk45 = {
     .name = "gc-rk45",
     .doc = "guiding centre, GSL Runge-Kutta-Fehlberg 4(5), adaptive (tolerance, default 1e-9)",
+    .adaptive = 1,
     .order = 4,
     .kind = GCP_GUIDING_CENTRE,
     .kick = NULL,
@@ -210,6 +211,7 @@ const struct gcp_pusher_type gcp_pusher_gc_rk45 = {
 const struct gcp_pusher_type gcp_pusher_gc_rk8pd = {
     .name = "gc-rk8pd",
     .doc = "guiding centre, GSL Prince-Dormand 8(7), adaptive (tolerance, default 1e-12)",
+    .adaptive = 1,
     .order = 8,
     .kind = GCP_GUIDING_CENTRE,
     .kick = NULL,

@@ -2,11 +2,16 @@
  *
  * Everything the scene does not ask for is left out here, once, not per
  * step: no trajectory sampler unless output asks for one; the field and the
- * pusher are fixed for the run (gcp_block_advance_fo holds the inner loops). */
+ * pusher are fixed for the run (the pusher's advance holds the inner loops).
+ * A guiding-centre pusher starts each particle from its full-orbit initial
+ * state through the first-order guiding-centre transformation
+ * (gcp_gc_from_fo), so full-orbit and guiding-centre runs of one run file
+ * push the same particles. */
 #include <math.h>
 #include <string.h>
 #include <time.h>
 
+#include "gcpush/gc.h"
 #include "gcpush/invariants.h"
 #include "gcpush/io.h"
 #include "gcpush/run.h"
@@ -71,7 +76,12 @@ static void record(const struct gcp_block *b, double t, void *vctx)
         const size_t j = (size_t)(row * S + k);
         r->traj_t[j] = t;
         r->traj_x[3 * j] = b->x[i], r->traj_x[3 * j + 1] = b->y[i], r->traj_x[3 * j + 2] = b->z[i];
-        r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i], r->traj_u[3 * j + 2] = b->uz[i];
+        if (r->gc) {
+            r->traj_ppar[j] = b->ppar[i];
+        } else {
+            r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i];
+            r->traj_u[3 * j + 2] = b->uz[i];
+        }
         r->traj_count[row] = k + 1;
     }
 }
@@ -107,6 +117,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
     }
     const double t0 = 0.0;
     const int64_t S = res->S;
+    const int gc = s->pusher->kind == GCP_GUIDING_CENTRE;
     int64_t c;
     while ((c = sched->next(sched->ctx)) >= 0) {
         int64_t first, count;
@@ -129,6 +140,20 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             memcpy(&res->u0[3 * row], u, sizeof u);
             b.x[i] = x[0], b.y[i] = x[1], b.z[i] = x[2];
             b.ux[i] = u[0], b.uy[i] = u[1], b.uz[i] = u[2];
+            if (gc) {
+                const struct gcp_species *sp = &s->pops[pop].species;
+                double X[3], ppar, mu;
+                /* a start the transformation cannot make (B = 0, outside a grid) is
+                 * left non-finite: the block's start-up check gives it its status */
+                if (gcp_gc_from_fo(s->field, t0, sp->charge, sp->mass, x, u, X, &ppar, &mu))
+                    X[0] = X[1] = X[2] = ppar = mu = NAN;
+                b.x[i] = X[0], b.y[i] = X[1], b.z[i] = X[2];
+                b.ppar[i] = ppar;
+                b.mu[i] = mu;
+                memcpy(&res->X0[3 * row], X, sizeof X);
+                res->ppar0[row] = ppar;
+                res->mu0[row] = mu;
+            }
             b.index[i] = (size_t)i;
             b.status[i] = 0;
             b.steps[i] = 0;
@@ -146,7 +171,9 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (S) {
             for (int64_t j = row0 * S; j < (row0 + count) * S; j++) {
                 res->traj_t[j] = NAN;
-                for (int d = 0; d < 3; d++) res->traj_x[3 * j + d] = res->traj_u[3 * j + d] = NAN;
+                for (int d = 0; d < 3; d++) res->traj_x[3 * j + d] = NAN;
+                if (gc) res->traj_ppar[j] = NAN;
+                else for (int d = 0; d < 3; d++) res->traj_u[3 * j + d] = NAN;
             }
             for (int64_t i = 0; i < count; i++) res->traj_count[row0 + i] = 0;
         }
@@ -158,8 +185,11 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         gcp_block_start(&b, s->field, t0);
         if (S) record(&b, t0, &tc);
         if (obs) gcp_observer_begin(obs, &b, t0, first, &res->ev);
-        const struct gcp_push_opts opts = {
-            .t0 = t0, .dt = s->pops[pop].dt, .nsteps = s->pops[pop].nsteps};
+        const struct gcp_push_opts opts = {.t0 = t0,
+                                           .dt = s->pops[pop].dt,
+                                           .nsteps = s->pops[pop].nsteps,
+                                           .tolerance = s->tolerance,
+                                           .adiabaticity_max = gc ? s->adiabaticity_max : 0.0};
         s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
         if (obs && gcp_observer_end(obs, &b)) {
             gcp_block_free(&b);
@@ -174,7 +204,13 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             const int64_t row = row0 + (int64_t)b.index[i];
             res->t[row] = b.t[i];
             res->x[3 * row] = b.x[i], res->x[3 * row + 1] = b.y[i], res->x[3 * row + 2] = b.z[i];
-            res->u[3 * row] = b.ux[i], res->u[3 * row + 1] = b.uy[i], res->u[3 * row + 2] = b.uz[i];
+            if (gc) {
+                res->ppar[row] = b.ppar[i];
+                res->mu[row] = b.mu[i];
+            } else {
+                res->u[3 * row] = b.ux[i], res->u[3 * row + 1] = b.uy[i];
+                res->u[3 * row + 2] = b.uz[i];
+            }
             res->status[row] = b.status[i];
             res->steps[row] = b.steps[i];
             /* The block's CPU time, shared in proportion to steps taken. */

@@ -308,9 +308,10 @@ static int resolve_duration(struct gcp_scene *sc, struct gcp_section *s, struct 
     return 0;
 }
 
-/* A step in gyro periods resolves against the shortest initial gyro period
- * of the population (every particle then has at least that resolution); in
- * bounce or drift periods against the population's first particle. */
+/* A step in periods resolves against the shortest initial period in the
+ * population (every particle then has at least that resolution): gyro
+ * periods over all its particles, bounce and drift periods over its first
+ * 1000. */
 static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp_section *s,
                       struct gcp_error *err)
 {
@@ -318,7 +319,12 @@ static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp
         p->dt = sc->dt_given;
         return 0;
     }
-    const int64_t last = sc->dt_period == GCP_PERIOD_GYRO ? p->first_id + p->count : p->first_id + 1;
+    /* bounce and drift periods cost two quadratures each: the first 1000
+     * particles (random draws) stand for the population */
+    const int64_t scan = sc->dt_period == GCP_PERIOD_GYRO ? p->count
+                         : p->count < 1000            ? p->count
+                                                      : 1000;
+    const int64_t last = p->first_id + scan;
     double Tmin = INFINITY;
     for (int64_t id = p->first_id; id < last; id++) {
         int pop;
@@ -385,15 +391,36 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     if ((rc = gcp_section_string(s, "method", 1, method, sizeof method, err)) < 0) return rc;
     if (!(sc->pusher = gcp_pusher_lookup(method)))
         return gcp_section_error(s, "method", err, GCP_ERR_UNKNOWN,
-                                 "unknown method '%s' (boris, boris-zu, vay, higuera-cary)",
+                                 "unknown method '%s' (boris, boris-zu, vay, higuera-cary, "
+                                 "gc-rk4, gc-rk45, gc-rk8pd, gc-vi)",
                                  method);
     if ((rc = gcp_section_time(s, "dt", 1, &sc->dt_given, &sc->dt_period, err)) < 0) return rc;
     if ((rc = positive(s, "dt", sc->dt_given, err))) return rc;
-    if (gcp_section_get(s, "tolerance", NULL))
+    /* adaptive methods: dt is the first trial step, tolerance the error per step */
+    if ((rc = gcp_section_quantity(s, "tolerance", GCP_Q_NUMBER, 0, &sc->tolerance, err)) < 0)
+        return rc;
+    if (rc == 1 && !sc->pusher->adaptive)
         return gcp_section_error(s, "tolerance", err, GCP_ERR_VALUE,
                                  "method '%s' has a fixed step: tolerance applies only to "
-                                 "adaptive methods", method);
-    if ((rc = gcp_section_check_unused(s, "method dt tolerance", err))) return rc;
+                                 "adaptive methods (gc-rk45, gc-rk8pd)", method);
+    if (rc == 1 && !(sc->tolerance > 0 && sc->tolerance < 1))
+        return gcp_section_error(s, "tolerance", err, GCP_ERR_VALUE, "must lie in (0, 1)");
+    /* Guiding-centre validity: first-order guiding-centre theory has O(eps)
+     * relative errors, eps = rho |grad B| / B; at eps = 0.1 a drift is off by
+     * ~10% and a 10 MeV proton at L = 4 is at the edge, so 0.1 is the default
+     * threshold (a particle past it ends NONADIABATIC; push it with a
+     * full-orbit method instead). */
+    sc->adiabaticity_max = sc->pusher->kind == GCP_GUIDING_CENTRE ? 0.1 : 0.0;
+    if ((rc = gcp_section_quantity(s, "adiabaticity", GCP_Q_NUMBER, 0, &sc->adiabaticity_max,
+                                   err)) < 0)
+        return rc;
+    if (rc == 1 && sc->pusher->kind != GCP_GUIDING_CENTRE)
+        return gcp_section_error(s, "adiabaticity", err, GCP_ERR_VALUE,
+                                 "applies only to guiding-centre methods (gc-*)");
+    if (rc == 1 && !(sc->adiabaticity_max >= 0))
+        return gcp_section_error(s, "adiabaticity", err, GCP_ERR_VALUE,
+                                 "must be >= 0 (0: no check)");
+    if ((rc = gcp_section_check_unused(s, "method dt tolerance adiabaticity", err))) return rc;
 
     s = gcp_run_file_section(rf, "diagnostics");
     if (s) {

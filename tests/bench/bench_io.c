@@ -42,7 +42,7 @@ int main(int argc, char **argv)
         MPI_Abort(MPI_COMM_WORLD, 1);
     }
     struct gcp_results r;
-    gcp_results_init(&r, sc->trajectory_samples);
+    gcp_results_init(&r, sc->trajectory_samples, 0);
     const int64_t S1 = r.S;
     /* this rank's share: a contiguous slice of ids */
     const int64_t lo = N * me / nr, hi = N * (me + 1) / nr;

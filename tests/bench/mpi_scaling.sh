@@ -5,7 +5,7 @@ set -u
 GCPUSH=${GCPUSH:-$(pwd)/bin/gcpush}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 TMP=$(mktemp -d); trap 'rm -rf "$TMP"' EXIT
-sed "s|^file .*|file = $TMP/s.h5|; s|^trajectory .*|trajectory = none|; s|^count .*|count = 256|; s|^duration .*|duration = 0.5 s|" runs/dipole.run > "$TMP/s.run"
+sed "s|^file .*|file = $TMP/s.h5|; s|^trajectory .*|trajectory = none|; s|^count .*|count = 256|; s|^duration .*|duration = 60 s|" runs/dipole.run > "$TMP/s.run"
 t() { s=$(date +%s%N); mpirun --oversubscribe --bind-to none -np "$1" "$GCPUSH" --quiet "$TMP/s.run"; e=$(date +%s%N); echo $(( (e - s) / 1000000 )); }
 t 1 > /dev/null   # warm caches
 t1=$(t 1); t2=$(t 2)

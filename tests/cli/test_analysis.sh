@@ -14,8 +14,11 @@
 #     inside the loss cone precipitates, none outside;
 #   - protons: L* per drift orbit kept to O(eps^2) (< 3e-2 per drift period),
 #     bounce periods to O(eps) (< 1e-1; measured up to 6e-2).
-# When the driver starts guiding-centre runs, a gc-vi variant tightens these
-# to round-off (L*) and 1e-4 (periods); see tests/unit/test_invariants.c.
+# The same electrons and protons pushed as guiding centres with gc-vi
+# (g.run; 200 steps per bounce) tighten these: L* per drift orbit to
+# round-off (the discrete Noether theorem keeps p_phi, i.e. the drift shell:
+# < 1e-12), K per bounce to the integrator's O(dt^2) (< 1e-6), mu exactly,
+# bounce and drift periods to O(dt^2) = (2 pi / 200)^2 / 12 ~ 1e-4 (< 5e-4).
 set -u
 . "$(dirname "$0")/lib.sh"
 A=$(cd "$(dirname "$0")/../../analysis" && pwd)
@@ -48,6 +51,23 @@ events     = bounce drift loss
 file = e.h5
 RUN
 sed 's/analysis-e/analysis-p/; s/duration = 1 s/duration = 180 s/; s/electron/proton/; s/1 MeV/10 MeV/; s/e.h5/p.h5/' e.run > p.run
+# guiding centres: electrons and protons together, one drift orbit of the protons
+# (10 MeV protons at L = 4 have eps = rho |grad B| / B ~ 0.1-0.15: past the default
+# adiabaticity threshold 0.1 they would end NONADIABATIC at once -- checked
+# below -- so g.run raises it to 0.2 to push them)
+sed 's/analysis-e/analysis-g/; s/duration = 1 s/duration = 250 s/; s/^method   = boris/method   = gc-vi\nadiabaticity = 0.2/; s/^dt       = 0.05 gyro/dt       = 0.005 bounce/; s/e.h5/g.h5/' e.run > g.run
+cat >> g.run <<'RUN'
+[particles.p]
+species  = proton
+count    = 6
+energy   = 10 MeV
+L        = 4
+pitch    = 20 deg .. 85 deg
+RUN
+"$GCPUSH" --quiet g.run > run.txt 2>&1 || die "g.run failed: $(cat run.txt)"
+sed 's/^adiabaticity = 0.2//; s/g.h5/g01.h5/; s/duration = 250 s/duration = 1 s/' g.run > g01.run
+"$GCPUSH" g01.run > run.txt 2>&1 || die "g01.run failed: $(cat run.txt)"
+grep -q "NONADIABATIC  6" run.txt || die "10 MeV protons at L = 4 not flagged NONADIABATIC at eps > 0.1: $(cat run.txt)"
 "$GCPUSH" --quiet e.run > run.txt 2>&1 || die "e.run failed: $(cat run.txt)"
 "$GCPUSH" --quiet p.run > run.txt 2>&1 || die "p.run failed: $(cat run.txt)"
 
@@ -65,7 +85,7 @@ pcheck() { # $1 file $2 species $3 period $4 max-worst $5 min-n
     echo "$line" | awk -v m="$4" -v n="$5" '{ exit !($6 <= m && $3 >= n) }' ||
         die "periods.py: $2 $3: $line (want worst <= $4, n >= $5)"
 }
-for r in e p; do
+for r in e p g; do
     "$PY" "$A/invariant_drift.py" $r.h5 -o inv$r.png > inv$r.txt 2> err.txt || die "invariant_drift.py $r.h5: $(cat err.txt)"
     [ -s inv$r.png ] || die "invariant_drift.py wrote no PNG"
     "$PY" "$A/periods.py" $r.h5 -o per$r.png > per$r.txt 2> err.txt || die "periods.py $r.h5: $(cat err.txt)"
@@ -78,6 +98,14 @@ check inve.txt electron K bounce 1e-7 6
 pcheck pere.txt electron bounce 2e-3 6
 check invp.txt proton 'L*' drift 3e-2 6
 pcheck perp.txt proton bounce 1e-1 6
+
+check invg.txt electron mu bounce 1e-12 6
+check invg.txt electron K bounce 1e-6 6
+check invg.txt proton K bounce 1e-6 6
+check invg.txt proton 'L*' drift 1e-12 6
+pcheck perg.txt electron bounce 5e-4 6
+pcheck perg.txt proton bounce 5e-4 6
+pcheck perg.txt proton drift 5e-4 6
 
 lc=$(grep '^loss cone:' losse.txt) || die "losses.py: no loss-cone line: $(cat losse.txt)"
 echo "$lc" | awk '{ gsub(/[(),]/, " "); exit !($4 == 3 && $6 == 3 && $8 == 6 && $10 == 0) }' ||

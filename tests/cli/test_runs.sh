@@ -55,22 +55,32 @@ assert (s[a > lc + 1] == 0).all() and (s[a < lc - 1] == 2).all(), list(zip(a.rou
 print("mirror: %d trapped, %d lost, loss cone %.2f deg" % ((s == 0).sum(), (s == 2).sum(), lc))
 PYEOF
 
-# dipole.run, shortened: Boris keeps |u| exactly in a pure magnetic field,
-# so every particle's gamma is unchanged to round-off (1e6 steps of ~1e-16
-# relative error each, random walk ~1e-13; 1e-11 leaves a margin but fails
-# on any real energy error).
-sed "s|^file .*|file = dipole.h5|; s|^duration .*|duration = 0.1 s|" "$RUNS/dipole.run" > d.run
+# dipole.run, shortened to 20 s: guiding centres with gc-vi.  Its energy
+# error is bounded and O(dt^2), oscillating within the bounce: at 100 steps
+# per (shortest) bounce, (omega_b dt)^2 / 12 = (2 pi / 100)^2 / 12 = 3.3e-4
+# (measured 1.4e-4), so 1e-3 holds with margin and fails on a secular drift
+# or a wrong step; mu is a constant of the scheme (exact); statuses only from
+# the belt mix.
+sed "s|^file .*|file = dipole.h5|; s|^duration .*|duration = 20 s|; s|^trajectory .*|trajectory = none|" "$RUNS/dipole.run" > d.run
 "$GCPUSH" --quiet d.run || die "dipole.run failed"
-"$PY" - dipole.h5 <<'PYEOF' || die "dipole.run: energy"
+"$PY" - dipole.h5 <<'PYEOF' || die "dipole.run: guiding-centre energy"
 import sys, h5py, numpy as np
 f = h5py.File(sys.argv[1], "r")
-c = 299792458.0
-g0 = np.sqrt(1 + (f["particles/initial/u"][:] ** 2).sum(1) / c**2)
-g1 = np.sqrt(1 + (f["particles/final/u"][:] ** 2).sum(1) / c**2)
-err = np.abs(g1 - g0) / (g0 - 1)
+c, B0, RE = 299792458.0, 3.12e-5, 6.3712e6
+m = f["particles/mass"][:]
+def gamma(X, ppar, mu):
+    r = np.linalg.norm(X, axis=1); sl = X[:, 2] / r
+    B = B0 * (RE / r) ** 3 * np.sqrt(1 + 3 * sl**2)
+    return np.sqrt(1 + (ppar / (m * c)) ** 2 + 2 * mu * B / (m * c**2))
+g0 = gamma(f["particles/initial/X"][:], f["particles/initial/ppar"][:], f["particles/initial/mu"][:])
+g1 = gamma(f["particles/final/X"][:], f["particles/final/ppar"][:], f["particles/final/mu"][:])
 s = f["particles/final/status"][:]
-assert set(s) <= {0, 1}, set(s)
-assert err.max() < 1e-11, err.max()
-print("dipole: max relative kinetic energy error %.2e over %d particles" % (err.max(), len(s)))
+alive = s == 0
+err = np.abs(g1 - g0)[alive] / (g0 - 1)[alive]
+assert set(s) <= {0, 1, 4}, set(s)
+assert (f["particles/final/mu"][:][alive] == f["particles/initial/mu"][:][alive]).all()
+assert err.max() < 1e-3, err.max()
+print("dipole (gc-vi): max relative kinetic energy error %.2e over %d live guiding centres"
+      % (err.max(), alive.sum()))
 PYEOF
 echo "ok test_runs"

@@ -281,8 +281,11 @@ static size_t synth_advance(struct gcp_block *b, const struct gcp_field *f,
     return b->n_active;
 }
 
-static const struct gcp_pusher_type synth_pusher = {
-    "synthetic", "prescribed orbit", 2, GCP_GUIDING_CENTRE, NULL, synth_advance};
+static const struct gcp_pusher_type synth_pusher = {.name = "synthetic",
+                                                   .doc = "prescribed orbit",
+                                                   .order = 2,
+                                                   .kind = GCP_GUIDING_CENTRE,
+                                                   .advance = synth_advance};
 
 Test(invariants, synthetic_orbit_exact_quantities)
 {
