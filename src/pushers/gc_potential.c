@@ -36,6 +36,7 @@
 #include "gcpush/error.h"
 #include "gcpush/field.h"
 #include "gcpush/gc.h"
+#include "gcpush/grid.h"
 
 /* ---- copies of the models' parameter structs (fields/<model>.c) ---- */
 struct gcpot_uniform { double B[3], E[3]; };
@@ -136,6 +137,7 @@ int gcp_gc_potential(const struct gcp_field *f, double t, const double x[3], dou
 {
     (void)t;
     const struct gcp_field_type *ft = f->type;
+    double psi, R;
     if (ft == &gcp_field_dipole)
         pot_dipole(f->params, x, A, dA, phi);
     else if (ft == &gcp_field_mirror)
@@ -144,7 +146,15 @@ int gcp_gc_potential(const struct gcp_field *f, double t, const double x[3], dou
         pot_tokamak(f->params, x, A, dA, phi);
     else if (ft == &gcp_field_uniform)
         pot_uniform(f->params, x, A, dA, phi);
-    else
+    else if (!dA && gcp_field_psi(f, x, &psi) == 0 && (R = hypot(x[0], x[1])) > 0) {
+        /* gridded axisymmetric fields with a flux (grid with psi, eqdsk): the
+         * toroidal component A_phi = psi / R, which is all that p_phi and the
+         * drift-shell flux need.  The poloidal components (from B_phi) are not
+         * known here, so no dA: gc-vi, which needs the whole A, refuses. */
+        const double Aphi = psi / R;
+        A[0] = -Aphi * x[1] / R, A[1] = Aphi * x[0] / R, A[2] = 0.0;
+        if (phi) *phi = 0.0;
+    } else
         return GCP_ERR_UNKNOWN;
     return 0;
 }
