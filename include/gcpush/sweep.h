@@ -84,14 +84,18 @@ struct gcp_sweep_row {
                                  full-orbit states): the error of the drift and bounce
                                  motion, whatever the gyrophase */
     double gyrophase_error;   /* [rad] signed; uniform fields: accumulated (see sweep.c) */
-    double bounce_phase_error;/* [rad] hook for the invariants module: NaN for now */
-    double drift_phase_error; /* [rad] hook: NaN for now */
+    double bounce_phase_error;/* [rad] 2 pi T |1/T_b - 1/T_b,ref|: the bounce phase at the end
+                                 (T the duration) from the mean measured bounce periods of the
+                                 run and the reference (invariant observer, untimed pass;
+                                 dipole, mirror, tokamak); NaN where either has no bounce */
+    double drift_phase_error; /* [rad] the same with the mean drift periods (dipole only) */
     double energy_error;      /* [1] static fields: |H_end - H_0| / W, H = W + q phi, W the
                                  largest kinetic energy of the start and the two ends;
                                  time-dependent fields: |W_end - W_ref| / W_ref */
-    double mu_drift;          /* [1/s] relative drift rate of mu: hook, NaN for now */
-    double K_drift;           /* [1/s] hook */
-    double Lstar_drift;       /* [1/s] hook */
+    double mu_drift;          /* [1/s] relative drift rate |last - first| / first / (t_last -
+                                 t_first) of the per-bounce mean mu; NaN with < 2 bounces */
+    double K_drift;           /* [1/s] the same for K (per bounce) */
+    double Lstar_drift;       /* [1/s] the same for L* (per drift orbit; dipole only) */
 };
 
 struct gcp_sweep_table {

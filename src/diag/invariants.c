@@ -298,11 +298,10 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
     if (!(te >= t0 && te <= t2)) te = t1;
     double w[3];
     lagrange3(t0, t1, t2, te, w);
-    double mu = 0, p2 = 0, ppar = 0;
+    double mu = 0, p2 = 0;
     for (int k = 0; k < 3; k++) {
         mu += w[k] * s[k]->mu;
         p2 += w[k] * s[k]->p2;
-        ppar += w[k] * s[k]->ppar;
     }
     if (o->opts.invariants & GCP_INV_MU) {
         struct gcp_event e = {.id = id, .kind = GCP_EVENT_MU, .t = te};

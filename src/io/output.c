@@ -430,6 +430,15 @@ static void write_timing(struct writer *w, MPI_Comm comm, int me, int nranks)
         MPI_Allgather(&r->n, 1, MPI_INT64_T, rank_n, 1, MPI_INT64_T, comm);
         write_rank0(w, g, "rank_cpu_seconds", H5T_NATIVE_DOUBLE, (hsize_t)nranks, rank_cpu, me);
         write_rank0(w, g, "rank_particles", H5T_NATIVE_INT64, (hsize_t)nranks, rank_n, me);
+        /* load imbalance (max - mean) / mean of the ranks' busy CPU seconds:
+         * 0 is perfect; the share of the run the busiest rank kept the others waiting */
+        double mx = 0.0, sum = 0.0;
+        for (int k = 0; k < nranks; k++) {
+            mx = rank_cpu[k] > mx ? rank_cpu[k] : mx;
+            sum += rank_cpu[k];
+        }
+        const double imbalance = sum > 0 ? mx / (sum / nranks) - 1.0 : 0.0;
+        attr_num(w, g, "load_imbalance", H5T_NATIVE_DOUBLE, &imbalance);
     }
     free(rank_cpu);
     free(rank_n);

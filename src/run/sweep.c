@@ -20,9 +20,15 @@
  * reference's end point, in (-pi, pi].  Where a guiding-centre method is
  * involved: not defined (NaN).
  *
- * Hooks for the invariants module (bounce and drift phase, mu / K / L*
- * drift rates): the columns exist and are NaN until src/diag provides the
- * measures; fill them in `invariant_measures` below. */
+ * Invariants (dipole: bounce and drift; mirror, tokamak: bounce; elsewhere
+ * NaN): each configuration and the reference are pushed once more, untimed,
+ * with the invariant observer (src/diag/invariants.c) on every step.  Per
+ * particle: the mean measured bounce and drift periods, and the relative
+ * drift rates |last - first| / |first| / (t_last - t_first) of the
+ * per-bounce mu and K and the per-drift-orbit L* (NaN with fewer than two
+ * events).  Phase errors are 2 pi T |1/P - 1/P_ref| with the mean periods P
+ * of the run and the reference; everything is the largest over the
+ * particles compared. */
 #include <ctype.h>
 #include <math.h>
 #include <stdio.h>
@@ -31,6 +37,7 @@
 #include <time.h>
 
 #include "gcpush/gc.h"
+#include "gcpush/invariants.h"
 #include "gcpush/kernels.h"
 #include "gcpush/sweep.h"
 #include "run_priv.h"
@@ -459,13 +466,120 @@ static int gc_position(const struct gcp_field *f, double t, const struct gcp_spe
     return gcp_gc_from_fo(f, t, sp->charge, sp->mass, &fi->x[3 * j], &fi->u[3 * j], X, &ppar, &mu);
 }
 
-/* Hook for the invariants module (src/diag): bounce and drift phase errors,
- * relative drift rates of mu, K, L* of a run against its reference.  Not
- * available yet: NaN. */
-static void invariant_measures(struct gcp_sweep_row *r)
+/* ---- invariant measures (src/diag/invariants.c) ------------------------- */
+
+/* Per particle, from the observer's events of one run: mean bounce and
+ * drift periods [s] and the relative drift rates [1/s] of mu, K (bounce
+ * events) and L* (drift events); NaN where not measured. */
+struct inv_stats {
+    double Tb, Td;
+    double mu_rate, K_rate, L_rate;
+};
+
+/* The events worth observing in the scene's field: dipole bounce + drift,
+ * mirror and tokamak bounce only, elsewhere none (0). */
+static unsigned inv_events(const struct gcp_field *f)
 {
-    r->bounce_phase_error = r->drift_phase_error = NAN;
-    r->mu_drift = r->K_drift = r->Lstar_drift = NAN;
+    if (f->type == &gcp_field_dipole) return GCP_EVT_BOUNCE | GCP_EVT_DRIFT;
+    if (f->type == &gcp_field_mirror || f->type == &gcp_field_tokamak) return GCP_EVT_BOUNCE;
+    return 0;
+}
+
+/* |last - first| / |first| / (t_last - t_first); NaN for fewer than 2 values. */
+static double rel_rate(int64_t n, double first, double last, double t0, double t1)
+{
+    if (n < 2 || !(t1 > t0) || first == 0.0) return NAN;
+    return fabs(last - first) / fabs(first) / (t1 - t0);
+}
+
+/* The push of push_all once more, untimed, with the invariant observer on
+ * every step (every = 1, as the driver attaches it); fills out[0..n).
+ * Returns 0 or GCP_ERR_NOMEM. */
+static int observe_all(const struct gcp_field *field, const struct gcp_species *sp,
+                       const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                       const struct states *st, struct gcp_block *b, unsigned evts,
+                       struct inv_stats *out)
+{
+    const int gc = p->kind == GCP_GUIDING_CENTRE;
+    struct gcp_observer *obs = NULL;
+    const struct gcp_observer_opts oo = {.events = evts};
+    if (gcp_observer_create(&obs, GCP_CHUNK, field, p, &oo)) return GCP_ERR_NOMEM;
+    struct gcp_events ev = {0};
+    int rc = 0;
+    for (size_t first = 0; first < st->n && !rc; first += GCP_CHUNK) {
+        const size_t cnt = st->n - first < GCP_CHUNK ? st->n - first : GCP_CHUNK;
+        for (size_t i = 0; i < cnt; i++) {
+            const size_t j = first + i;
+            const double *x = gc ? &st->X0[3 * j] : &st->x0[3 * j];
+            b->x[i] = x[0], b->y[i] = x[1], b->z[i] = x[2];
+            b->ux[i] = st->u0[3 * j], b->uy[i] = st->u0[3 * j + 1], b->uz[i] = st->u0[3 * j + 2];
+            b->ppar[i] = gc ? st->ppar0[j] : 0.0;
+            b->mu[i] = gc ? st->mu0[j] : 0.0;
+            if (gc && !st->gc_ok[j]) b->x[i] = NAN;
+            b->index[i] = i;
+            b->status[i] = 0;
+            b->steps[i] = 0;
+            b->t[i] = o->t0;
+        }
+        b->n = b->n_active = cnt;
+        b->q = sp->charge;
+        b->m = sp->mass;
+        gcp_block_start(b, field, o->t0);
+        gcp_observer_begin(obs, b, o->t0, (int64_t)first, &ev);
+        const struct gcp_sampler smp = {1, gcp_observer_sample, obs};
+        p->advance(b, field, p, o, &smp);
+        rc = gcp_observer_end(obs, b);
+    }
+    gcp_observer_free(obs);
+    if (rc) {
+        gcp_events_free(&ev);
+        return rc;
+    }
+    /* per particle: counts, sums, first and last values (a lane's events of
+     * one kind come in time order) */
+    for (size_t j = 0; j < st->n; j++) out[j] = (struct inv_stats){NAN, NAN, NAN, NAN, NAN};
+    int64_t *nb = calloc(st->n, sizeof *nb), *nd = calloc(st->n, sizeof *nd);
+    double *acc = calloc(st->n * 12, sizeof *acc);
+    if (!nb || !nd || !acc) {
+        free(nb), free(nd), free(acc), gcp_events_free(&ev);
+        return GCP_ERR_NOMEM;
+    }
+    for (int64_t k = 0; k < ev.n; k++) {
+        const struct gcp_event *e = &ev.e[k];
+        if (e->id < 0 || (size_t)e->id >= st->n) continue;
+        const size_t j = (size_t)e->id;
+        double *a = &acc[12 * j]; /* sumTb K0 K1 mu0 mu1 tb0 tb1 | sumTd L0 L1 td0 td1 */
+        if (e->kind == GCP_EVENT_BOUNCE) {
+            if (nb[j]++ == 0) a[1] = e->v[GCP_BOUNCE_K], a[3] = e->v[GCP_BOUNCE_MU], a[5] = e->t;
+            a[0] += e->v[GCP_BOUNCE_PERIOD];
+            a[2] = e->v[GCP_BOUNCE_K], a[4] = e->v[GCP_BOUNCE_MU], a[6] = e->t;
+        } else if (e->kind == GCP_EVENT_DRIFT) {
+            if (nd[j]++ == 0) a[8] = e->v[1], a[10] = e->t;
+            a[7] += e->v[0];
+            a[9] = e->v[1], a[11] = e->t;
+        }
+    }
+    for (size_t j = 0; j < st->n; j++) {
+        const double *a = &acc[12 * j];
+        struct inv_stats *s = &out[j];
+        if (nb[j]) s->Tb = a[0] / (double)nb[j];
+        if (nd[j]) s->Td = a[7] / (double)nd[j];
+        s->K_rate = rel_rate(nb[j], a[1], a[2], a[5], a[6]);
+        s->mu_rate = rel_rate(nb[j], a[3], a[4], a[5], a[6]);
+        s->L_rate = rel_rate(nd[j], a[8], a[9], a[10], a[11]);
+    }
+    free(nb), free(nd), free(acc);
+    gcp_events_free(&ev);
+    return 0;
+}
+
+/* Bounce and drift phase error at the end, 2 pi T |1/P - 1/P_ref| with the
+ * mean measured periods P of the run and the reference; NaN where either
+ * is not measured. */
+static double phase_error(double T, double P, double Pref)
+{
+    if (!(P > 0) || !(Pref > 0)) return NAN;
+    return 2.0 * GCP_PI * T * fabs(1.0 / P - 1.0 / Pref);
 }
 
 /* Keeps the value of largest magnitude (NaN never wins). */
@@ -477,6 +591,7 @@ static void keep_max(double *acc, double v)
 static void compare(const struct gcp_scene *sc, const struct gcp_population *pop,
                     const struct states *st, const struct finals *run, const struct finals *ref,
                     const double *ref_phase, const double *run_phase, int phase_wrapped,
+                    const struct inv_stats *run_inv, const struct inv_stats *ref_inv,
                     struct gcp_sweep_row *row)
 {
     const struct gcp_species *sp = &pop->species;
@@ -486,6 +601,8 @@ static void compare(const struct gcp_scene *sc, const struct gcp_population *pop
     row->position_error = row->position_error_gyroradius = row->position_error_path = NAN;
     row->gc_position_error = NAN;
     row->gyrophase_error = row->energy_error = NAN;
+    row->bounce_phase_error = row->drift_phase_error = NAN;
+    row->mu_drift = row->K_drift = row->Lstar_drift = NAN;
     row->failed = 0;
     for (size_t j = 0; j < st->n; j++) {
         if (run->status[j] != GCP_ALIVE || ref->status[j] != GCP_ALIVE) {
@@ -571,8 +688,18 @@ static void compare(const struct gcp_scene *sc, const struct gcp_population *pop
             }
         }
         keep_max(&row->gyrophase_error, ph);
+        /* invariants: drift rates of the run, periods against the reference's */
+        if (run_inv) {
+            const struct inv_stats *ri = &run_inv[j];
+            keep_max(&row->mu_drift, ri->mu_rate);
+            keep_max(&row->K_drift, ri->K_rate);
+            keep_max(&row->Lstar_drift, ri->L_rate);
+            if (ref_inv) {
+                keep_max(&row->bounce_phase_error, phase_error(T, ri->Tb, ref_inv[j].Tb));
+                keep_max(&row->drift_phase_error, phase_error(T, ri->Td, ref_inv[j].Td));
+            }
+        }
     }
-    invariant_measures(row);
 }
 
 /* ---- the sweep ---------------------------------------------------------- */
@@ -676,18 +803,25 @@ int gcp_sweep_run(const struct gcp_scene *sc, const struct gcp_sweep_spec *spec,
         struct states st = {0};
         struct finals ref = {0}, run = {0};
         double *ref_phase = NULL, *run_phase = NULL;
+        struct inv_stats *ref_inv = NULL, *run_inv = NULL;
         if (states_make(sc, pop, &st) || finals_alloc(&ref, st.n) || finals_alloc(&run, st.n) ||
             !(ref_phase = malloc(st.n * sizeof(double))) ||
-            !(run_phase = malloc(st.n * sizeof(double)))) {
+            !(run_phase = malloc(st.n * sizeof(double))) ||
+            !(ref_inv = malloc(st.n * sizeof *ref_inv)) ||
+            !(run_inv = malloc(st.n * sizeof *run_inv))) {
             rc = gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
             states_free(&st);
             finals_free(&ref);
             finals_free(&run);
             free(ref_phase);
             free(run_phase);
+            free(ref_inv);
+            free(run_inv);
             break;
         }
         int have_phase = 0;
+        /* the invariant observer's events in this field (0: none) */
+        const unsigned evts = inv_events(sc->field);
         double wmax = 0.0; /* largest |omega| in the drift frame */
         /* the reference */
         if (spec->analytic) {
@@ -715,6 +849,9 @@ int gcp_sweep_run(const struct gcp_scene *sc, const struct gcp_sweep_spec *spec,
             if (!rc) {
                 if (progress) fprintf(progress, "sweep: [%s] reference %s ...\n", pop->name, t->reference);
                 push_all(sc->field, &pop->species, spec->ref_method, &o, &st, &b, &ref);
+                if (evts && observe_all(sc->field, &pop->species, spec->ref_method, &o, &st, &b,
+                                        evts, ref_inv))
+                    rc = gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
             }
         }
         for (size_t mi = 0; mi < spec->nmethods && !rc; mi++) {
@@ -766,8 +903,18 @@ int gcp_sweep_run(const struct gcp_scene *sc, const struct gcp_sweep_spec *spec,
                         run_phase[j] = wrapped ? pt.last : p0 + pt.acc;
                     }
                 }
+                /* the invariants: a separate, untimed pass with the observer */
+                int use_inv = 0;
+                if (evts) {
+                    if (observe_all(sc->field, &pop->species, p, &o, &st, &b, evts, run_inv)) {
+                        rc = gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
+                        break;
+                    }
+                    use_inv = 1;
+                }
                 compare(sc, pop, &st, &run, &ref, use_phase ? ref_phase : NULL,
-                        use_phase ? run_phase : NULL, wrapped, &row);
+                        use_phase ? run_phase : NULL, wrapped, use_inv ? run_inv : NULL,
+                        use_inv && !spec->analytic ? ref_inv : NULL, &row);
                 if (table_add(t, &row)) rc = gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
                 if (progress)
                     fprintf(progress, "sweep: [%s] %-12s %s %-10.4g %.3g s CPU, error %.3g m\n",
@@ -780,6 +927,8 @@ int gcp_sweep_run(const struct gcp_scene *sc, const struct gcp_sweep_spec *spec,
         finals_free(&run);
         free(ref_phase);
         free(run_phase);
+        free(ref_inv);
+        free(run_inv);
     }
     gcp_block_free(&b);
     if (rc) gcp_sweep_table_free(t);
