@@ -74,6 +74,7 @@ struct gcp_scene {
     double dt_given;
     enum gcp_period dt_period;
     char output[1024];      /* output file path */
+    int compression;        /* trajectory deflate level 1..9; 0: none (chunked, unfiltered) */
     double checkpoint_every;/* [s] wall time between checkpoints; 0: only on SIGINT/SIGTERM */
     int64_t trajectory_samples; /* samples per particle, incl. the initial one (0: none) */
     unsigned invariants;    /* [diagnostics] invariants: GCP_INV_* bits (invariants.h); 0: none */

@@ -30,6 +30,7 @@ struct writer {
     hid_t file;
     hid_t dxpl;              /* collective transfer */
     const struct gcp_results *r;
+    int compression;         /* trajectory deflate level, 0: none */
     int64_t total;           /* rows in the file */
     int bad;                 /* a call failed on this rank */
 };
@@ -77,17 +78,19 @@ static void write_rows(struct writer *w, hid_t loc, const char *name, hid_t type
 }
 
 /* Trajectories are large and smooth: chunked (64 particles x up to 1024
- * samples) with byte shuffle + deflate level 1, which parallel HDF5 applies
- * in collective writes.  Falls back to contiguous without the filter. */
-static hid_t trajectory_dcpl(const struct gcp_results *r, int64_t total, int rank)
+ * samples), with byte shuffle + deflate at the run file's level ([output]
+ * compression, default 1), which parallel HDF5 applies in collective writes. */
+static hid_t trajectory_dcpl(const struct gcp_results *r, int64_t total, int rank, int level)
 {
     hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
-    if (!H5Zfilter_avail(H5Z_FILTER_DEFLATE) || total == 0) return dcpl;
+    if (total == 0) return dcpl;
     hsize_t chunk[3] = {(hsize_t)(total < 64 ? total : 64),
                         (hsize_t)(r->S < 1024 ? r->S : 1024), 3};
     H5Pset_chunk(dcpl, rank, chunk);
-    H5Pset_shuffle(dcpl);
-    H5Pset_deflate(dcpl, 1);
+    if (level > 0 && H5Zfilter_avail(H5Z_FILTER_DEFLATE)) {
+        H5Pset_shuffle(dcpl);
+        H5Pset_deflate(dcpl, (unsigned)level);
+    }
     return dcpl;
 }
 
@@ -211,7 +214,8 @@ static void write_trajectories(struct writer *w)
     const struct gcp_results *r = w->r;
     hid_t g = group(w, w->file, "trajectories");
     const hsize_t S = (hsize_t)r->S;
-    hid_t d2 = trajectory_dcpl(r, w->total, 2), d3 = trajectory_dcpl(r, w->total, 3);
+    hid_t d2 = trajectory_dcpl(r, w->total, 2, w->compression);
+    hid_t d3 = trajectory_dcpl(r, w->total, 3, w->compression);
     write_rows_dcpl(w, g, "t", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_t, d2);
     write_rows_dcpl(w, g, "x", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_x, d3);
     if (r->gc) write_rows_dcpl(w, g, "ppar", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_ppar, d2);
@@ -506,7 +510,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     char tmp[1100];
     temp_name(sc, comm, tmp, sizeof tmp);
 
-    struct writer w = {.r = r, .total = sc->total};
+    struct writer w = {.r = r, .total = sc->total, .compression = sc->compression};
     hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
     H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
     H5Pset_all_coll_metadata_ops(fapl, 1);

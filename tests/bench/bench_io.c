@@ -34,7 +34,8 @@ int main(int argc, char **argv)
              "[scene]\nname = io\nfield = uniform\nduration = 1 s\n[field]\nB = 0 0 1 T\n"
              "[particles]\nspecies = proton\ncount = %ld\nenergy = 1 keV\nposition = 0 0 0 m\n"
              "direction = 1 0 0\n[integrator]\nmethod = boris\ndt = 0.001 s\n[output]\n"
-             "file = /tmp/gcp_bench_io.h5\ntrajectory = %ld samples\n", N, S);
+             "file = /tmp/gcp_bench_io.h5\ntrajectory = %ld samples\ncompression = %s\n", N, S,
+             argc > 3 ? argv[3] : "1");
     struct gcp_error err = {0};
     struct gcp_scene *sc;
     if (gcp_scene_parse("bench.run", text, &sc, &err)) {
@@ -92,8 +93,8 @@ int main(int argc, char **argv)
         fseek(f, 0, SEEK_END);
         const double fsize = (double)ftell(f);
         fclose(f);
-        printf("  %d rank(s), %ld particles x %lld samples: %.0f MB of trajectories\n", nr, N,
-               (long long)S1, traj_bytes / 1e6);
+        printf("  %d rank(s), %ld particles x %lld samples: %.0f MB of trajectories, compression %s\n",
+               nr, N, (long long)S1, traj_bytes / 1e6, argc > 3 ? argv[3] : "1");
         printf("    gcp_output_write (whole file, compressed to %.0f MB): %7.1f MB/s\n",
                fsize / 1e6, traj_bytes / 1e6 / t_h5);
         printf("    fwrite of the same trajectory bytes:                 %7.1f MB/s   ratio %.2f\n",

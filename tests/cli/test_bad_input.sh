@@ -70,6 +70,7 @@ good | sed 's/^duration .*/duration = 2 drift/' > case.run; expect no-drift-peri
 good | sed 's/^file = .*/file = no\/such\/dir\/out.h5/' > case.run; expect unwritable "\[output\] file: cannot write 'no/such/dir/out.h5'"
 good | sed 's/^method = boris/method = boris\ntolerance = 1e-9/' > case.run; expect tolerance-fixed 'tolerance applies only to adaptive'
 good | sed 's/^direction .*/pitch = 30 deg/' | sed 's/^position .*/L = 4/' > case.run; expect L-needs-dipole 'L shells need field = dipole'
+good | sed 's/^file = out.h5/file = out.h5\ncompression = 12/' > case.run; expect bad-compression '\[output\] compression: expected none or a deflate level 1..9'
 good | sed '/^\[output\]/,$d' > case.run;                 expect missing-section '\[output\] section is missing'
 printf '[scene]\nname = x\000\n' > case.run;              expect nul-byte 'NUL byte'
 "$GCPUSH" missing.run > /dev/null 2> stderr.txt && die "missing file: exit 0"
