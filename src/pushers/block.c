@@ -126,3 +126,12 @@ size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t st
     return n;
 }
 
+
+void gcp_block_finish(struct gcp_block *b, size_t n, double t_end, int64_t k)
+{
+    for (size_t i = 0; i < n; i++) {
+        b->t[i] = t_end;
+        b->steps[i] += k;
+    }
+    b->n_active = n;
+}

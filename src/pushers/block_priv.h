@@ -21,4 +21,7 @@ int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field
  * time t_stop and adding steps_done to their steps; returns the live count. */
 size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t steps_done);
 
+/* Ends a push of k steps: the n live lanes get t = t_end and k more steps. */
+void gcp_block_finish(struct gcp_block *b, size_t n, double t_end, int64_t k);
+
 #endif

@@ -99,11 +99,7 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
         b->n_active = n;
         if (every && (k + 1) % every == 0) sampler->fn(b, t + dt, sampler->ctx);
     }
-    for (size_t i = 0; i < n; i++) {
-        b->t[i] = t0 + (double)k * dt;
-        b->steps[i] += k;
-    }
-    b->n_active = n;
+    gcp_block_finish(b, n, t0 + (double)k * dt, k);
     return n;
 }
 

@@ -89,11 +89,7 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
         b->n_active = n;
         if (every && (k + 1) % every == 0) s->fn(b, t + h, s->ctx);
     }
-    for (size_t i = 0; i < n; i++) {
-        b->t[i] = o->t0 + (double)k * h;
-        b->steps[i] += k;
-    }
-    b->n_active = n;
+    gcp_block_finish(b, n, o->t0 + (double)k * h, k);
     free(w);
     return n;
 }

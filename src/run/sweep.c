@@ -334,6 +334,31 @@ static void finals_free(struct finals *f)
 }
 
 /* One push of all particles with method p under opts; returns CPU seconds. */
+
+/* Loads particles [first, first + cnt) of st into block b: the full-orbit
+ * start, or its guiding centre for a guiding-centre method (one that could
+ * not be made starts non-finite and gets its status at the first step). */
+static void fill_block(struct gcp_block *b, const struct states *st, size_t first, size_t cnt,
+                       int gc, const struct gcp_species *sp, double t0)
+{
+    for (size_t i = 0; i < cnt; i++) {
+        const size_t j = first + i;
+        const double *x = gc ? &st->X0[3 * j] : &st->x0[3 * j];
+        b->x[i] = x[0], b->y[i] = x[1], b->z[i] = x[2];
+        b->ux[i] = st->u0[3 * j], b->uy[i] = st->u0[3 * j + 1], b->uz[i] = st->u0[3 * j + 2];
+        b->ppar[i] = gc ? st->ppar0[j] : 0.0;
+        b->mu[i] = gc ? st->mu0[j] : 0.0;
+        if (gc && !st->gc_ok[j]) b->x[i] = NAN;
+        b->index[i] = i;
+        b->status[i] = 0;
+        b->steps[i] = 0;
+        b->t[i] = t0;
+    }
+    b->n = b->n_active = cnt;
+    b->q = sp->charge;
+    b->m = sp->mass;
+}
+
 static double push_all(const struct gcp_field *field, const struct gcp_species *sp,
                        const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                        const struct states *st, struct gcp_block *b, struct finals *out)
@@ -344,23 +369,7 @@ static double push_all(const struct gcp_field *field, const struct gcp_species *
     const double c0 = cpu_now();
     for (size_t first = 0; first < st->n; first += GCP_CHUNK) {
         const size_t cnt = st->n - first < GCP_CHUNK ? st->n - first : GCP_CHUNK;
-        for (size_t i = 0; i < cnt; i++) {
-            const size_t j = first + i;
-            const double *x = gc ? &st->X0[3 * j] : &st->x0[3 * j];
-            b->x[i] = x[0], b->y[i] = x[1], b->z[i] = x[2];
-            b->ux[i] = st->u0[3 * j], b->uy[i] = st->u0[3 * j + 1], b->uz[i] = st->u0[3 * j + 2];
-            b->ppar[i] = gc ? st->ppar0[j] : 0.0;
-            b->mu[i] = gc ? st->mu0[j] : 0.0;
-            /* a guiding centre that could not be made starts non-finite */
-            if (gc && !st->gc_ok[j]) b->x[i] = NAN;
-            b->index[i] = i;
-            b->status[i] = 0;
-            b->steps[i] = 0;
-            b->t[i] = o->t0;
-        }
-        b->n = b->n_active = cnt;
-        b->q = sp->charge;
-        b->m = sp->mass;
+        fill_block(b, st, first, cnt, gc, sp, o->t0);
         if (!gc) gcp_block_start(b, field, o->t0);
         p->advance(b, field, p, o, NULL);
         for (size_t i = 0; i < cnt; i++) {
@@ -508,22 +517,7 @@ static int observe_all(const struct gcp_field *field, const struct gcp_species *
     int rc = 0;
     for (size_t first = 0; first < st->n && !rc; first += GCP_CHUNK) {
         const size_t cnt = st->n - first < GCP_CHUNK ? st->n - first : GCP_CHUNK;
-        for (size_t i = 0; i < cnt; i++) {
-            const size_t j = first + i;
-            const double *x = gc ? &st->X0[3 * j] : &st->x0[3 * j];
-            b->x[i] = x[0], b->y[i] = x[1], b->z[i] = x[2];
-            b->ux[i] = st->u0[3 * j], b->uy[i] = st->u0[3 * j + 1], b->uz[i] = st->u0[3 * j + 2];
-            b->ppar[i] = gc ? st->ppar0[j] : 0.0;
-            b->mu[i] = gc ? st->mu0[j] : 0.0;
-            if (gc && !st->gc_ok[j]) b->x[i] = NAN;
-            b->index[i] = i;
-            b->status[i] = 0;
-            b->steps[i] = 0;
-            b->t[i] = o->t0;
-        }
-        b->n = b->n_active = cnt;
-        b->q = sp->charge;
-        b->m = sp->mass;
+        fill_block(b, st, first, cnt, gc, sp, o->t0);
         gcp_block_start(b, field, o->t0);
         gcp_observer_begin(obs, b, o->t0, (int64_t)first, &ev);
         const struct gcp_sampler smp = {1, gcp_observer_sample, obs};
