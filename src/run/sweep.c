@@ -46,7 +46,7 @@
 
 static int adaptive(const struct gcp_pusher_type *p)
 {
-    return p == &gcp_pusher_gc_rk45 || p == &gcp_pusher_gc_rk8pd;
+    return p->adaptive;
 }
 
 static double dot(const double a[3], const double b[3])
