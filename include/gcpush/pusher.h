@@ -56,6 +56,11 @@ typedef void (*gcp_kick_batch_fn)(size_t n, double *ux, double *uy, double *uz,
                                   const double *Bx, const double *By, const double *Bz,
                                   double q, double m, double dt);
 
+/* Momentum update in a pure magnetic field (optional, for scenes without E). */
+typedef void (*gcp_kick_B_batch_fn)(size_t n, double *ux, double *uy, double *uz,
+                                    const double *Bx, const double *By, const double *Bz,
+                                    double q, double m, double dt);
+
 struct gcp_pusher_type {
     const char *name;          /* run-file name: "boris", "vay", ... */
     const char *doc;           /* one line for --help, with the reference */
@@ -63,6 +68,7 @@ struct gcp_pusher_type {
     int adaptive;              /* [bool] chooses its own steps (takes a tolerance) */
     enum gcp_pusher_kind kind;
     gcp_kick_batch_fn kick;    /* full orbit: the momentum update (NULL for guiding centre) */
+    gcp_kick_B_batch_fn kick_B;/* full orbit, optional: the same with E = 0 (fewer operations) */
     gcp_advance_fn advance;    /* the block push: every pusher has one */
 };
 

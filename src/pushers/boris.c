@@ -11,4 +11,5 @@ const struct gcp_pusher_type gcp_pusher_boris = {
     .kind = GCP_FULL_ORBIT,
     .advance = gcp_block_advance_fo_opts,
     .kick = gcp_push_boris_batch,
+    .kick_B = gcp_push_boris_B_batch,
 };

@@ -66,11 +66,13 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
 {
     size_t n = b->n_active;
     const double h = 0.5 * dt;
-    /* Chosen once: with no electric field the gathered E stays zero. */
+    /* Chosen once: with no electric field the gathered E stays zero, or the
+     * pusher's pure-magnetic kick skips the E terms altogether. */
     double *Ex = f->has_E ? b->Ex : NULL;
     double *Ey = f->has_E ? b->Ey : NULL;
     double *Ez = f->has_E ? b->Ez : NULL;
-    if (!f->has_E) {
+    const gcp_kick_B_batch_fn kick_B = f->has_E ? NULL : p->kick_B;
+    if (!f->has_E && !kick_B) {
         memset(b->Ex, 0, b->n * sizeof(double));
         memset(b->Ey, 0, b->n * sizeof(double));
         memset(b->Ez, 0, b->n * sizeof(double));
@@ -89,7 +91,8 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
         memset(b->fstatus, 0, n * sizeof(int32_t));
         ft->eval_block(f, t + h, n, b->x, b->y, b->z, b->Bx, b->By, b->Bz, Ex, Ey, Ez,
                        b->fstatus);
-        kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
+        if (kick_B) kick_B(n, b->ux, b->uy, b->uz, b->Bx, b->By, b->Bz, b->q, b->m, dt);
+        else kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
         half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
         drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
         if (gcp_block_classify(b, n, f, 0)) {

@@ -218,3 +218,35 @@ Test(kernels_batch, edge_cases)
     cr_assert(fabs(sa + 1.0) < 1e-13 && fabs(sb + 2.0) < 1e-13 && sc == 3.0,
               "boris-zu half turn: (%.17g %.17g %.17g)", sa, sb, sc);
 }
+
+/* The pure-magnetic Boris kick (used by the stepper when a scene has no E)
+ * is gcp_push_boris with the E half-kicks left out: the same floating-point
+ * operations on the same values, so every component is equal (==, which
+ * also equates -0 and +0: adding the zero E can turn -0 into +0) for any
+ * input, including huge omega dt and B = 0. */
+Test(kernels_batch, boris_B_equals_boris_with_zero_E)
+{
+    const double q = 1.602176634e-19, m = 1.67262192369e-27;
+    double ux[64], uy[64], uz[64], bx[64], by[64], bz[64];
+    double vx[64], vy[64], vz[64];
+    unsigned long long st = 12345;
+    for (int i = 0; i < 64; i++) {
+        double r[6];
+        for (int k = 0; k < 6; k++) {
+            st = st * 6364136223846793005ULL + 1442695040888963407ULL;
+            r[k] = (double)(st >> 11) * 0x1.0p-53 - 0.5;
+        }
+        ux[i] = vx[i] = 3e8 * r[0], uy[i] = vy[i] = 3e8 * r[1], uz[i] = vz[i] = 3e8 * r[2];
+        bx[i] = (i % 9 == 0) ? 0.0 : pow(10.0, 4.0 * r[3]) * r[4];
+        by[i] = (i % 9 == 0) ? 0.0 : r[5];
+        bz[i] = (i % 9 == 0) ? 0.0 : 1.0 + r[3];
+    }
+    const double zero[64] = {0};
+    for (int step = 0; step < 5; step++) {
+        gcp_push_boris_B_batch(64, ux, uy, uz, bx, by, bz, q, m, 1e-6);
+        gcp_push_boris_batch(64, vx, vy, vz, zero, zero, zero, bx, by, bz, q, m, 1e-6);
+    }
+    for (int i = 0; i < 64; i++) {
+        cr_assert(ux[i] == vx[i] && uy[i] == vy[i] && uz[i] == vz[i], "lane %d differs", i);
+    }
+}
