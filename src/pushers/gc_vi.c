@@ -358,6 +358,11 @@ static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane 
                 L->theta[k] = p1.theta[k];
             }
             L->p = u[3];
+            /* keep the azimuth in [-pi, pi]: the scheme sees phi only through
+             * its increments, and an azimuth grown to ~1e3 rad over long runs
+             * would have an ulp (1e-13) above the Newton tolerance on phi, so
+             * Newton could no longer converge (seen after ~3e5 steps) */
+            if (C->cyl) L->c[1] = remainder(L->c[1], 2.0 * GCP_PI);
             *fst = p1.st ? p1.st : st;
             return 0;
         }
