@@ -73,6 +73,14 @@ good | sed 's/^direction .*/pitch = 30 deg/' | sed 's/^position .*/L = 4/' > cas
 good | sed 's/^file = out.h5/file = out.h5\ncompression = 12/' > case.run; expect bad-compression '\[output\] compression: expected none or a deflate level 1..9'
 good | sed '/^\[output\]/,$d' > case.run;                 expect missing-section '\[output\] section is missing'
 printf '[scene]\nname = x\000\n' > case.run;              expect nul-byte 'NUL byte'
+# missing and corrupt field files: named with the run file's line and key
+good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = missing-grid.h5/' > case.run
+expect missing-grid "case.run:8: \[field\] file: missing-grid.h5: cannot open grid file"
+echo garbage > corrupt.h5
+good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = corrupt.h5/' > case.run
+expect corrupt-grid "case.run:8: \[field\] file: corrupt.h5: not an HDF5 file"
+good | sed 's/^field    = uniform/field    = eqdsk/; s/^B = .*/file = corrupt.h5/' > case.run
+expect corrupt-eqdsk "case.run:8: \[field\] file: corrupt.h5:1: expected 48 characters"
 "$GCPUSH" missing.run > /dev/null 2> stderr.txt && die "missing file: exit 0"
 grep -q "missing.run: cannot open" stderr.txt || die "missing file: $(cat stderr.txt)"
 "$GCPUSH" --frobnicate > /dev/null 2>&1 && die "unknown option: exit 0"
