@@ -33,6 +33,8 @@
 enum { EXIT_RUN_FAILED = 1, EXIT_BAD_INPUT = 2, EXIT_INTERRUPTED = 3 };
 
 static volatile sig_atomic_t stop_requested = 0;
+/* the driver polls it as a volatile int (struct gcp_schedule.stop) */
+_Static_assert(sizeof(sig_atomic_t) == sizeof(int), "sig_atomic_t is not an int here");
 static void on_signal(int sig)
 {
     (void)sig;
@@ -338,7 +340,8 @@ int main(int argc, char **argv)
         MPI_Abort(comm, EXIT_RUN_FAILED);
     }
     ctx.t0 = ctx.last_print = ctx.last_ckpt = wall_now();
-    const struct gcp_schedule sched = {next_chunk, chunk_done, &ctx};
+    const struct gcp_schedule sched = {next_chunk, chunk_done, &ctx,
+                                       (const volatile int *)&stop_requested};
     rc = gcp_scene_push(sc, &res, &sched, &err);
     if (me == 0 && !quiet && ctx.last_print > ctx.t0) progress(&ctx, 1);
     int64_t pushed, steps_run;

@@ -122,6 +122,10 @@ struct gcp_schedule {
     int64_t (*next)(void *ctx);
     void (*done)(void *ctx, struct gcp_results *res, int64_t particles, int64_t steps);
     void *ctx;
+    /* (may be NULL) a flag polled between slices of a chunk's push: when it
+     * turns non-zero the chunk in progress is dropped (its particles stay
+     * to be pushed, e.g. after a restart) and gcp_scene_push returns. */
+    const volatile int *stop;
 };
 
 /* Particles per chunk: one block of the stepper, one population. */

@@ -101,6 +101,10 @@ static void multi_sample(const struct gcp_block *b, double t, void *vctx)
     if (c->every && ++c->k % c->every == 0) record(b, t, c->tc);
 }
 
+/* Steps per slice of a chunk's push (see gcp_schedule.stop): ~2 ms of a
+ * full-orbit chunk, ~1 s of a gc-vi one. */
+#define GCP_SLICE 8192
+
 int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
                    const struct gcp_schedule *sched, struct gcp_error *err)
 {
@@ -184,13 +188,33 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         const double c0 = cpu_now();
         gcp_block_start(&b, s->field, t0);
         if (S) record(&b, t0, &tc);
+        const int64_t events_before = res->ev.n;
         if (obs) gcp_observer_begin(obs, &b, t0, first, &res->ev);
-        const struct gcp_push_opts opts = {.t0 = t0,
-                                           .dt = s->pops[pop].dt,
-                                           .nsteps = s->pops[pop].nsteps,
-                                           .tolerance = s->tolerance,
-                                           .adiabaticity_max = gc ? s->adiabaticity_max : 0.0};
-        s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
+        struct gcp_push_opts opts = {.t0 = t0,
+                                     .dt = s->pops[pop].dt,
+                                     .nsteps = s->pops[pop].nsteps,
+                                     .tolerance = s->tolerance,
+                                     .adiabaticity_max = gc ? s->adiabaticity_max : 0.0};
+        /* The push in slices, so that a stop request (SIGTERM) is answered
+         * within a slice, not a whole chunk; a slice is a whole number of
+         * trajectory intervals, so samples fall where they would unsliced. */
+        const int64_t every = s->pops[pop].trajectory_every;
+        const int64_t slice = every > 0 ? (GCP_SLICE + every - 1) / every * every : GCP_SLICE;
+        int stopped = 0;
+        for (int64_t done = 0; done < s->pops[pop].nsteps && b.n_active > 0;) {
+            if (sched->stop && *sched->stop) {
+                stopped = 1;
+                break;
+            }
+            opts.t0 = t0 + (double)done * s->pops[pop].dt;
+            opts.nsteps = s->pops[pop].nsteps - done < slice ? s->pops[pop].nsteps - done : slice;
+            s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
+            done += opts.nsteps;
+        }
+        if (stopped) { /* drop the chunk: its rows and events were never complete */
+            res->ev.n = events_before;
+            break;
+        }
         if (obs && gcp_observer_end(obs, &b)) {
             gcp_block_free(&b);
             gcp_observer_free(obs);
