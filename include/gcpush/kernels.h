@@ -49,6 +49,26 @@ static inline GCP_HD double gcp_gamma_of_u(double ux, double uy, double uz)
     return sqrt(1.0 + (ux * ux + uy * uy + uz * uz) * GCP_INV_C2);
 }
 
+/* The magnetic rotation of Boris's scheme, u- -> u+ in place (qdt2m =
+ * q dt / 2m): t = qdt2m B / gamma(u-), s = 2 t / (1 + t^2),
+ * u' = u- + u- x t, u+ = u- + u' x s. */
+static inline GCP_HD void gcp_boris_rotate_(double *ux, double *uy, double *uz, double Bx,
+                                            double By, double Bz, double qdt2m)
+{
+    const double umx = *ux, umy = *uy, umz = *uz;
+    const double inv_gamma = 1.0 / gcp_gamma_of_u(umx, umy, umz);
+    const double tx = qdt2m * inv_gamma * Bx;
+    const double ty = qdt2m * inv_gamma * By;
+    const double tz = qdt2m * inv_gamma * Bz;
+    const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
+    const double upx = umx + (umy * tz - umz * ty);
+    const double upy = umy + (umz * tx - umx * tz);
+    const double upz = umz + (umx * ty - umy * tx);
+    *ux = umx + s * (upy * tz - upz * ty);
+    *uy = umy + s * (upz * tx - upx * tz);
+    *uz = umz + s * (upx * ty - upy * tx);
+}
+
 /* Relativistic Boris push (Boris 1970; Birdsall & Langdon, Plasma Physics via
  * Computer Simulation, sec. 15-4):
  *   u-  = u + (q dt / 2m) E
@@ -63,20 +83,11 @@ static inline GCP_HD void gcp_push_boris(double *ux, double *uy, double *uz,
                                          double q, double m, double dt)
 {
     const double qdt2m = 0.5 * q * dt / m;
-    const double umx = *ux + qdt2m * Ex;
-    const double umy = *uy + qdt2m * Ey;
-    const double umz = *uz + qdt2m * Ez;
-    const double inv_gamma = 1.0 / gcp_gamma_of_u(umx, umy, umz);
-    const double tx = qdt2m * inv_gamma * Bx;
-    const double ty = qdt2m * inv_gamma * By;
-    const double tz = qdt2m * inv_gamma * Bz;
-    const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
-    const double upx = umx + (umy * tz - umz * ty);
-    const double upy = umy + (umz * tx - umx * tz);
-    const double upz = umz + (umx * ty - umy * tx);
-    *ux = umx + s * (upy * tz - upz * ty) + qdt2m * Ex;
-    *uy = umy + s * (upz * tx - upx * tz) + qdt2m * Ey;
-    *uz = umz + s * (upx * ty - upy * tx) + qdt2m * Ez;
+    double vx = *ux + qdt2m * Ex, vy = *uy + qdt2m * Ey, vz = *uz + qdt2m * Ez;
+    gcp_boris_rotate_(&vx, &vy, &vz, Bx, By, Bz, qdt2m);
+    *ux = vx + qdt2m * Ex;
+    *uy = vy + qdt2m * Ey;
+    *uz = vz + qdt2m * Ez;
 }
 
 /* Boris with the exact gyro-angle (Zenitani & Umeda 2018, Phys. Plasmas 25
@@ -217,19 +228,7 @@ GCP_DEFINE_BATCH_(gcp_push_higuera_cary)
 static inline GCP_HD void gcp_push_boris_B(double *ux, double *uy, double *uz, double Bx,
                                            double By, double Bz, double q, double m, double dt)
 {
-    const double qdt2m = 0.5 * q * dt / m;
-    const double umx = *ux, umy = *uy, umz = *uz;
-    const double inv_gamma = 1.0 / gcp_gamma_of_u(umx, umy, umz);
-    const double tx = qdt2m * inv_gamma * Bx;
-    const double ty = qdt2m * inv_gamma * By;
-    const double tz = qdt2m * inv_gamma * Bz;
-    const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
-    const double upx = umx + (umy * tz - umz * ty);
-    const double upy = umy + (umz * tx - umx * tz);
-    const double upz = umz + (umx * ty - umy * tx);
-    *ux = umx + s * (upy * tz - upz * ty);
-    *uy = umy + s * (upz * tx - upx * tz);
-    *uz = umz + s * (upx * ty - upy * tx);
+    gcp_boris_rotate_(ux, uy, uz, Bx, By, Bz, 0.5 * q * dt / m);
 }
 
 static inline GCP_HD void gcp_push_boris_B_batch(size_t n, double *GCP_RESTRICT ux,

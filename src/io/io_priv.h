@@ -19,4 +19,12 @@ struct gcp_results_column {
 /* Fills c with the columns r has (trajectory columns only when r->S > 0). */
 size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c);
 
+/* HDF5 attributes common to the output files (h5attr.c); loc and type are
+ * hid_t values (int64_t here, so this header needs no hdf5.h).  A failure
+ * sets *bad. */
+void gcp_h5_attr_str(int *bad, int64_t loc, const char *name, const char *value);
+void gcp_h5_attr_num(int *bad, int64_t loc, const char *name, int64_t type, const void *v);
+/* The root attributes of every gcpush output file (DESIGN.md, HDF5 output). */
+void gcp_h5_root_attrs(int *bad, int64_t file, const struct gcp_scene *sc, int nranks);
+
 #endif

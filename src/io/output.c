@@ -15,16 +15,8 @@
 #include <hdf5.h>
 
 #include "gcpush/io.h"
+#include "io_priv.h"
 
-#ifndef GCP_VERSION
-#define GCP_VERSION "unknown"
-#endif
-#ifndef GCP_GIT_HASH
-#define GCP_GIT_HASH "unknown"
-#endif
-#ifndef GCP_BUILD_FLAGS
-#define GCP_BUILD_FLAGS "unknown"
-#endif
 
 struct writer {
     hid_t file;
@@ -113,24 +105,12 @@ static void write_rank0(struct writer *w, hid_t loc, const char *name, hid_t typ
 
 static void attr_str(struct writer *w, hid_t loc, const char *name, const char *value)
 {
-    hid_t t = H5Tcopy(H5T_C_S1);
-    H5Tset_size(t, strlen(value) + 1);
-    H5Tset_strpad(t, H5T_STR_NULLTERM);
-    hid_t sp = H5Screate(H5S_SCALAR);
-    hid_t a = H5Acreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0 || H5Awrite(a, t, value) < 0) w->bad = 1;
-    if (a >= 0) H5Aclose(a);
-    H5Sclose(sp);
-    H5Tclose(t);
+    gcp_h5_attr_str(&w->bad, loc, name, value);
 }
 
 static void attr_num(struct writer *w, hid_t loc, const char *name, hid_t type, const void *v)
 {
-    hid_t sp = H5Screate(H5S_SCALAR);
-    hid_t a = H5Acreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0 || H5Awrite(a, type, v) < 0) w->bad = 1;
-    if (a >= 0) H5Aclose(a);
-    H5Sclose(sp);
+    gcp_h5_attr_num(&w->bad, loc, name, type, v);
 }
 
 static hid_t group(struct writer *w, hid_t loc, const char *name)
@@ -449,24 +429,6 @@ static void write_timing(struct writer *w, MPI_Comm comm, int me, int nranks)
     H5Gclose(g);
 }
 
-static void write_root_attrs(struct writer *w, const struct gcp_scene *sc, int nranks)
-{
-    hid_t f = w->file;
-    attr_str(w, f, "gcpush_version", GCP_VERSION);
-    attr_str(w, f, "git_hash", GCP_GIT_HASH);
-    attr_str(w, f, "build_flags", GCP_BUILD_FLAGS);
-    attr_str(w, f, "run_file", sc->text);
-    attr_str(w, f, "run_file_name", sc->path);
-    attr_str(w, f, "units", "SI");
-    attr_str(w, f, "scene", sc->name);
-    attr_str(w, f, "field", sc->field_model);
-    attr_str(w, f, "method", sc->pusher->name);
-    attr_num(w, f, "ranks", H5T_NATIVE_INT, &nranks);
-    attr_num(w, f, "duration", H5T_NATIVE_DOUBLE, &sc->duration);
-    attr_num(w, f, "seed", H5T_NATIVE_UINT64, &sc->seed);
-    attr_num(w, f, "particles", H5T_NATIVE_INT64, &sc->total);
-}
-
 /* Temporary name next to the output, unique per run (rank 0's pid). */
 static void temp_name(const struct gcp_scene *sc, MPI_Comm comm, char *buf, size_t len)
 {
@@ -527,7 +489,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     w.dxpl = H5Pcreate(H5P_DATASET_XFER);
     H5Pset_dxpl_mpio(w.dxpl, H5FD_MPIO_COLLECTIVE);
 
-    write_root_attrs(&w, sc, nranks);
+    gcp_h5_root_attrs(&w.bad, w.file, sc, nranks);
     write_particles(&w, sc);
     if (r->S) write_trajectories(&w);
     if (sc->invariants || sc->events) write_events(&w, sc, comm);

@@ -18,38 +18,8 @@
 #include <mpi.h>
 
 #include "gcpush/sweep.h"
+#include "io_priv.h"
 
-#ifndef GCP_VERSION
-#define GCP_VERSION "unknown"
-#endif
-#ifndef GCP_GIT_HASH
-#define GCP_GIT_HASH "unknown"
-#endif
-#ifndef GCP_BUILD_FLAGS
-#define GCP_BUILD_FLAGS "unknown"
-#endif
-
-static void attr_str(int *bad, hid_t loc, const char *name, const char *value)
-{
-    hid_t t = H5Tcopy(H5T_C_S1);
-    H5Tset_size(t, strlen(value) + 1);
-    H5Tset_strpad(t, H5T_STR_NULLTERM);
-    hid_t sp = H5Screate(H5S_SCALAR);
-    hid_t a = H5Acreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0 || H5Awrite(a, t, value) < 0) *bad = 1;
-    if (a >= 0) H5Aclose(a);
-    H5Sclose(sp);
-    H5Tclose(t);
-}
-
-static void attr_num(int *bad, hid_t loc, const char *name, hid_t type, const void *v)
-{
-    hid_t sp = H5Screate(H5S_SCALAR);
-    hid_t a = H5Acreate2(loc, name, type, sp, H5P_DEFAULT, H5P_DEFAULT);
-    if (a < 0 || H5Awrite(a, type, v) < 0) *bad = 1;
-    if (a >= 0) H5Aclose(a);
-    H5Sclose(sp);
-}
 
 static void column(int *bad, hid_t g, const char *name, hid_t type, size_t n, const void *data,
                    const char *units)
@@ -59,7 +29,7 @@ static void column(int *bad, hid_t g, const char *name, hid_t type, size_t n, co
     hid_t d = H5Dcreate2(g, name, type, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
     if (d < 0 || (n && H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)) *bad = 1;
     if (d >= 0) {
-        attr_str(bad, d, "units", units);
+        gcp_h5_attr_str(bad, d, "units", units);
         H5Dclose(d);
     }
     H5Sclose(sp);
@@ -99,25 +69,13 @@ int gcp_sweep_write(const struct gcp_scene *sc, const struct gcp_sweep_table *t,
     snprintf(tmp, sizeof tmp, "%s.tmp-%ld", sc->output, (long)getpid());
     hid_t f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (f < 0) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot create '%s'", sc->output, tmp);
-    int bad = 0, one = 1;
-    attr_str(&bad, f, "gcpush_version", GCP_VERSION);
-    attr_str(&bad, f, "git_hash", GCP_GIT_HASH);
-    attr_str(&bad, f, "build_flags", GCP_BUILD_FLAGS);
-    attr_str(&bad, f, "run_file", sc->text);
-    attr_str(&bad, f, "run_file_name", sc->path);
-    attr_str(&bad, f, "units", "SI");
-    attr_str(&bad, f, "scene", sc->name);
-    attr_str(&bad, f, "field", sc->field_model);
-    attr_str(&bad, f, "method", sc->pusher->name);
-    attr_num(&bad, f, "ranks", H5T_NATIVE_INT, &one);
-    attr_num(&bad, f, "duration", H5T_NATIVE_DOUBLE, &sc->duration);
-    attr_num(&bad, f, "seed", H5T_NATIVE_UINT64, &sc->seed);
-    attr_num(&bad, f, "particles", H5T_NATIVE_INT64, &sc->total);
+    int bad = 0;
+    gcp_h5_root_attrs(&bad, f, sc, 1);
 
     hid_t g = H5Gcreate2(f, "sweep", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
     if (g < 0) bad = 1;
-    attr_str(&bad, g, "reference", t->reference);
-    attr_num(&bad, g, "duration", H5T_NATIVE_DOUBLE, &t->duration);
+    gcp_h5_attr_str(&bad, g, "reference", t->reference);
+    gcp_h5_attr_num(&bad, g, "duration", H5T_NATIVE_DOUBLE, &t->duration);
     const size_t n = t->n ? t->n : 1;
     double *d = malloc(n * sizeof *d);
     int64_t *iv = malloc(n * sizeof *iv);
