@@ -5,6 +5,8 @@
 
 VERSION  := 0.1.0
 PREFIX   ?= /usr/local
+# `make` alone builds the product (the fuzzer rule below comes first in the file).
+.DEFAULT_GOAL := all
 DEBUG    ?= 0
 JOBS     ?= 2
 
