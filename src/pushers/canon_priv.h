@@ -1,0 +1,74 @@
+/* src/pushers/canon_priv.h -- canonical charts for guiding centres in
+ * axisymmetric fields (private to src/pushers/; issue 11).
+ *
+ * Why.  The guiding-centre phase-space Lagrangian (Littlejohn 1983; Cary &
+ * Brizard 2009)
+ *     L = (q A + p_par b) . dX/dt - H(X, p_par),   H = gamma m c^2 (+ q Phi)
+ * is non-canonical in (X, p_par): a symplectic Runge-Kutta method applied to
+ * it in those coordinates is not symplectic for its two-form d theta.  In an
+ * axisymmetric field there are coordinates (phi, eta, P_phi, P_eta) -- a
+ * chart -- in which, up to an exact differential,
+ *     theta = (q A + p_par b) . dX = P_phi dphi + P_eta deta,
+ * so the motion is canonical:
+ *     dphi/dt = dH/dP_phi, deta/dt = dH/dP_eta,
+ *     dP_phi/dt = -dH/dphi = 0 (axisymmetry), dP_eta/dt = -dH/deta,
+ * and any symplectic integrator for canonical Hamiltonian systems (Gauss-
+ * Legendre collocation, ...) is symplectic for the guiding centre, with
+ * P_phi = q psi + p_par R b_phi a discrete Noether invariant.
+ *
+ * The construction (orthogonal poloidal coordinates (s, eta) in the R-Z
+ * plane, so that b has no covariant s component, and a gauge with A_s = 0):
+ *   - curl-free axisymmetric fields (dipole, mirror): s = psi, eta = chi, the
+ *     magnetic scalar potential (B = -grad chi); P_phi = q psi,
+ *     P_chi = p_par b.dX/dchi = -p_par / |B|.
+ *   - fields with B_phi and currents (tokamak, EQDSK, R-Z grids with psi):
+ *     eta constant along the gradient lines of psi (Albert, Grassler,
+ *     Kasilov, Markl & Schatzlmayr 2025 treat the general case).
+ *
+ * State layout: z[0] = phi [rad], z[1] = eta [chart unit],
+ *               z[2] = P_phi [kg m^2/s], z[3] = P_eta [chart unit].
+ * aux[2]: the chart's own non-canonical coordinates of the last point it
+ * mapped (e.g. (s, p_par)), an in/out Newton guess that makes repeated
+ * inversions cheap; to_canon sets it, from_canon and hamiltonian use and
+ * update it.  Charts are static (no time dependence).
+ */
+#ifndef GCPUSH_CANON_PRIV_H
+#define GCPUSH_CANON_PRIV_H
+
+#include <stddef.h>
+
+#include "gcpush/field.h"
+
+/* The constants of one guiding centre. */
+struct gcp_gc_consts {
+    double q;  /* [C] charge (signed) */
+    double m;  /* [kg] rest mass */
+    double mu; /* [J/T] magnetic moment p_perp^2 / (2 m |B|) */
+};
+
+struct gcp_canon_chart {
+    const char *name;              /* "curl-free", "flux-orthogonal", ... */
+    const struct gcp_field *field; /* not owned */
+    void *data;                    /* the chart's own, freed by destroy */
+    /* (X [m], p_par [kg m/s]) -> z; sets aux.  0 or a particle status. */
+    int (*to_canon)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                    const double X[3], double ppar, double z[4], double aux[2]);
+    /* z -> (X, p_par).  0 or a particle status (GCP_LEFT_DOMAIN outside the
+     * chart, GCP_STEP_FAILED when the inversion does not converge). */
+    int (*from_canon)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                      const double z[4], double aux[2], double X[3], double *ppar);
+    /* H(z) [J] and dH/dz (dH[0] = dH/dphi = 0 in an axisymmetric field).
+     * 0 or a particle status. */
+    int (*hamiltonian)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                       const double z[4], double aux[2], double *H, double dH[4]);
+    void (*destroy)(void *data);
+};
+
+/* Builds a chart for field f (the first constructor in canon_chart.c that
+ * applies).  0, or GCP_ERR_STATE with `why` saying why no chart exists for
+ * this field (e.g. "a 3-D field has no axisymmetry to make canonical"). */
+int gcp_canon_chart_create(const struct gcp_field *f, struct gcp_canon_chart *out, char *why,
+                           size_t whylen);
+void gcp_canon_chart_destroy(struct gcp_canon_chart *c);
+
+#endif
