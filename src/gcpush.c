@@ -298,8 +298,9 @@ int main(int argc, char **argv)
             printf("%s: ok: %lld particles, %s in %s for %.6g s\n", arg, (long long)sc->total,
                    sc->pusher->name, sc->field_model, sc->duration);
             for (size_t k = 0; k < sc->npop; k++)
-                printf("  [%s] %lld %s, %lld steps of %.6g s\n", sc->pops[k].name,
+                printf("  [%s] %lld %s%s%s, %lld steps of %.6g s\n", sc->pops[k].name,
                        (long long)sc->pops[k].count, sc->pops[k].species.name,
+                       sc->pops[k].file[0] ? " from " : "", sc->pops[k].file,
                        (long long)sc->pops[k].nsteps, sc->pops[k].dt);
         }
         gcp_scene_free(sc);

@@ -150,7 +150,7 @@ PY
 
 # duration = dt: exactly one step (full orbit and guiding centre); a
 # duration of 2.5 dt: 3 steps of duration / 3
-for m in boris gc-rk4; do
+for m in boris gc-rk4 gc-vi; do
     scene $m "1 ms" "1 ms" one.h5 $m-p.h5 $m-e.h5 > one.run
     scene $m "1 ms" "2.5 ms" frac.h5 $m-p.h5 $m-e.h5 > frac.run
     "$GCPUSH" --quiet one.run || die "$m: one-step run failed"
