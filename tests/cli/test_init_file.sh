@@ -216,8 +216,8 @@ with h5py.File('D.h5') as f, h5py.File('sub/D.h5', 'w') as g:
     g['particles/initial/x'] = f['particles/initial/x'][()] * 1.01
     g['particles/initial/u'] = f['particles/initial/u'][()]
 "
-ens "file = D.h5" "50 s" R.h5 | sed 's/^\[output\]/[output]\ncheckpoint = 0.05 s/' > sub/R.run
-ens "file = D.h5" "50 s" ref.h5 > ref.run
+ens "file = D.h5" "30 s" R.h5 | sed 's/^\[output\]/[output]\ncheckpoint = 0.05 s/' > sub/R.run
+ens "file = D.h5" "30 s" ref.h5 > ref.run
 # the signal halfway through the push (start-up, MPI_Init mostly, timed apart)
 start=$(date +%s%N)
 "$GCPUSH" --check ref.run > /dev/null || die "reference run file refused"
