@@ -130,6 +130,9 @@ PY
 # B of the dipole B0 R_E^3 / r^3 sqrt(1 + 3 sin^2 lat) computed here
 scene gc-rk4 "0.5 gyro" "0.5 s" G.h5 gc-vi-p.h5 gc-vi-e.h5 > G.run
 "$GCPUSH" --quiet G.run || die "gyro-step run failed"
+mv G.h5 G1.h5
+$MPIRUN -np 3 "$GCPUSH" --quiet G.run || die "gyro-step run on 3 ranks failed"
+h5diff G1.h5 G.h5 /particles /particles > diff.txt 2>&1 || die "given guiding centres: 1 and 3 ranks differ: $(head -5 diff.txt)"
 "$PY" - <<'PY' || die "gyro step of given guiding centres"
 import h5py, numpy as np
 c, mp, me, q = 299792458.0, 1.67262192369e-27, 9.1093837015e-31, 1.602176634e-19
