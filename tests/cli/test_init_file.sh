@@ -232,20 +232,20 @@ took=$(( ($(date +%s%N) - start) / 1000000 ))
 sleep "$(awk -v t="$took" -v b="$boot" 'BEGIN { print (b + (t - b) * 0.5) / 1000 }')"
 kill -TERM $pid; wait $pid; rc=$?
 [ $rc = 3 ] || die "SIGTERM halfway through the run (${took} ms, ${boot} ms to start): exit status $rc, not 3"
-rows=$("$PY" -c "
-import glob, struct
-print(sum(struct.unpack_from('<q', open(p, 'rb').read(), 16)[0] for p in glob.glob('R.h5.ckpt.*')))")
-[ "$rows" -gt 0 ] || die "the checkpoint holds no particle: interrupted too early (${took} ms run)"
 # the file changed since the checkpoint: refused, naming the file
 cp D.h5 D.keep; "$PY" -c "
 import h5py
 with h5py.File('D.h5', 'r+') as f: f['particles/initial/u'][...] *= 1.001"
-if "$GCPUSH" --quiet --restart R.h5 2> changed.txt; then die "restart from a changed file succeeded"; fi
+if "$GCPUSH" --quiet --restart R.h5 2> changed.txt; then
+    die "restart from a changed file succeeded (or no particle was checkpointed: interrupted too early, ${took} ms run)"
+fi
 grep -q "D.h5: the initial state of particle [0-9]* differs from the one checkpointed" changed.txt ||
     die "changed file: $(cat changed.txt)"
 [ -f R.h5 ] && die "a refused restart wrote its output"
 mv D.keep D.h5
-$MPIRUN -np 2 "$GCPUSH" --quiet --restart R.h5 || die "restart failed"
+$MPIRUN -np 2 "$GCPUSH" --restart R.h5 > restart.txt || die "restart failed: $(cat restart.txt)"
+rows=$(sed -n 's/^restart: \([0-9]*\) particles from.*/\1/p' restart.txt)
+[ "${rows:-0}" -gt 0 ] || die "the restart loaded no particle: $(cat restart.txt)"
 h5diff ref.h5 R.h5 /particles /particles > diff.txt 2>&1 || die "restart differs: $(head -5 diff.txt)"
 echo "  --restart of a file-seeded run ($rows particles checkpointed) = the uninterrupted run"
 # and a file next to the run file only is not found from elsewhere
