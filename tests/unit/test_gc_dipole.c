@@ -71,7 +71,7 @@ static void start_state(const struct gcp_field *f, const struct case_ *c, double
 static int steps_per_bounce(const struct gcp_pusher_type *p)
 {
     if (gc_is(p, "gc-rk4")) return 400;
-    if (gc_is(p, "gc-vi")) return 8000;
+    if (gc_is(p, "gc-midpoint-pphi")) return 8000;
     return 200;
 }
 
@@ -159,7 +159,7 @@ Test(gc_dipole, order_of_convergence)
     double ref[4];
     run_err(f, &gcp_pusher_gc_rk8pd, 1, Th, NULL, 0.0, ref);
     struct { const struct gcp_pusher_type *p; int N; double order; } m[] = {
-        {&gcp_pusher_gc_rk4, 64, 4.0}, {&gcp_pusher_gc_vi, 64, 2.0}};
+        {&gcp_pusher_gc_rk4, 64, 4.0}, {&gcp_pusher_gc_midpoint_pphi, 64, 2.0}};
     for (int k = 0; k < 2; k++) {
         const double e1 = run_err(f, m[k].p, m[k].N, Th, ref, ref[3], NULL);
         const double e2 = run_err(f, m[k].p, 2 * m[k].N, Th, ref, ref[3], NULL);

@@ -115,3 +115,119 @@ Test(gc_symplectic, chart_roundtrip_and_gradient)
         sys_free(&S[c]);
     }
 }
+
+/* ---- symplecticity ---- */
+
+/* One step of method p of size h from canonical z0, mapped back to z1. */
+static int one_step(const struct sys *S, const struct gcp_canon_chart *ch,
+                    const struct gcp_pusher_type *p, double h, const double z0[4], double z1[4])
+{
+    double aux[2] = {S->X[0], S->X[2]}, X[3], pp, t = 0.0;
+    if (ch->from_canon(ch, &S->k, z0, aux, X, &pp)) return -1;
+    const struct gcp_push_opts o = {0.0, h, 1, 0.0, 0.0};
+    if (gcp_gc_push(S->f, p, S->k.q, S->k.m, &o, &t, X, &pp, S->k.mu, NULL, NULL)) return -1;
+    if (ch->to_canon(ch, &S->k, X, pp, z1, aux)) return -1;
+    /* phi continuous across the branch cut of atan2 */
+    z1[0] = z0[0] + remainder(z1[0] - z0[0], 2.0 * GCP_PI);
+    return 0;
+}
+
+/* |M^T J M - J| of the one-step map, by central differences, scale free:
+ * with s_k a scale of each coordinate and S_pair = s_q s_p the action scale
+ * of each canonical pair, entry (i, j) is weighed by s_i s_j /
+ * sqrt(S_pair(i) S_pair(j)) -- the residual in coordinates where every pair
+ * is scaled to a unit action, in which |J| = 1.  The difference step 1e-5
+ * s_k makes the truncation error (1e-5)^2 ~ 1e-10 and the round-off (the
+ * map is known to ~1e-15 relative: Newton tolerances, chart round trip)
+ * 1e-15/1e-5 = 1e-10: the floor is ~1e-10, and 1e-8 is asserted for the
+ * symplectic methods. */
+static double sympl_residual(const struct sys *S, const struct gcp_canon_chart *ch,
+                             const struct gcp_pusher_type *p, double h, const double z0[4],
+                             const double sc[4])
+{
+    double M[4][4];
+    for (int j = 0; j < 4; j++) {
+        double zp[4], zm[4], z1p[4], z1m[4];
+        memcpy(zp, z0, sizeof zp), memcpy(zm, z0, sizeof zm);
+        const double e = 1e-5 * sc[j];
+        zp[j] += e, zm[j] -= e;
+        if (one_step(S, ch, p, h, zp, z1p) || one_step(S, ch, p, h, zm, z1m)) return NAN;
+        for (int i = 0; i < 4; i++) M[i][j] = (z1p[i] - z1m[i]) / (zp[j] - zm[j]);
+    }
+    /* J: dz/dt = J grad H, J = [[0, I], [-I, 0]] */
+    static const double J[4][4] = {{0, 0, 1, 0}, {0, 0, 0, 1}, {-1, 0, 0, 0}, {0, -1, 0, 0}};
+    const double act[2] = {sc[0] * sc[2], sc[1] * sc[3]};
+    double res = 0.0;
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double r = -J[i][j];
+            for (int a = 0; a < 4; a++)
+                for (int b = 0; b < 4; b++) r += M[a][i] * J[a][b] * M[b][j];
+            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(act[i % 2] * act[j % 2]));
+        }
+    return res;
+}
+
+/* For each system and h = T_b / N, N = 25, 50, 100, 200 (25 to 200 steps per
+ * bounce, the range a user would run), the residual of gc-gl2 and gc-gl4
+ * stays at the difference floor (< 1e-8, independent of h), while gc-rk4
+ * (local error h^5: residual ~ h^5, must fall >= 16x per halving, 32x
+ * ideally) and the p_phi-exact midpoint scheme gc-midpoint-pphi (residual
+ * h^3, >= 5x per halving, 8x ideally) are measurably not symplectic at the
+ * coarsest step (> 1e-6, i.e. 100x the assertion bound): the test can fail. */
+Test(gc_symplectic, one_step_map_is_symplectic, .timeout = 120)
+{
+    struct sys S[3];
+    sys_dipole(&S[0], "dipole e- 1 MeV", -GCP_E_CHARGE, GCP_M_ELECTRON, 1e6 * GCP_E_CHARGE,
+               30.0 * GCP_PI / 180.0);
+    sys_dipole(&S[1], "dipole p+ 10 MeV", GCP_E_CHARGE, GCP_M_PROTON, 10e6 * GCP_E_CHARGE,
+               30.0 * GCP_PI / 180.0);
+    sys_mirror(&S[2]);
+    const struct gcp_pusher_type *sym[] = {&gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4};
+    const struct gcp_pusher_type *non[] = {&gcp_pusher_gc_rk4, &gcp_pusher_gc_midpoint_pphi};
+    const double non_order[] = {5.0, 3.0}, non_min_ratio[] = {16.0, 5.0};
+    for (int c = 0; c < 3; c++) {
+        struct gcp_canon_chart ch;
+        char why[256];
+        cr_assert_eq(gcp_canon_chart_create(S[c].f, &ch, why, sizeof why), 0, "%s", why);
+        /* start off the equator (a quarter of the way to the mirror point
+         * by time), so that every coordinate moves */
+        double X[3] = {S[c].X[0], S[c].X[1], S[c].X[2]}, pp = S[c].ppar, t = 0.0;
+        const struct gcp_push_opts o = {0.0, S[c].Tb / 400, 40, 0.0, 0.0};
+        cr_assert_eq(gcp_gc_push(S[c].f, &gcp_pusher_gc_rk8pd, S[c].k.q, S[c].k.m, &o, &t, X,
+                                 &pp, S[c].k.mu, NULL, NULL), 0);
+        double z0[4], aux[2];
+        cr_assert_eq(ch.to_canon(&ch, &S[c].k, X, pp, z0, aux), 0);
+        /* scales: 1 rad; chi over the distance r along B (|B| r); P_phi;
+         * P_chi of the full momentum p / |B| */
+        const double r = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]), Bm = gc_Bmag(S[c].f, X);
+        const double ptot = sqrt(pp * pp + 2.0 * S[c].k.m * S[c].k.mu * Bm);
+        const double sc[4] = {1.0, Bm * r, fabs(z0[2]), ptot / Bm};
+        double prev[2] = {NAN, NAN};
+        for (int N = 25; N <= 200; N *= 2) {
+            const double h = S[c].Tb / N;
+            for (int k = 0; k < 2; k++) {
+                const double res = sympl_residual(&S[c], &ch, sym[k], h, z0, sc);
+                cr_log_info("%-17s N %3d %-17s residual %.2e", S[c].name, N, sym[k]->name, res);
+                cr_expect(res < 1e-8, "%s N %d %s: residual %.2e", S[c].name, N, sym[k]->name,
+                          res);
+            }
+            for (int k = 0; k < 2; k++) {
+                const double res = sympl_residual(&S[c], &ch, non[k], h, z0, sc);
+                const double ratio = prev[k] / res;
+                cr_log_info("%-17s N %3d %-17s residual %.2e ratio %.1f (h^%.0f: %.0f)",
+                            S[c].name, N, non[k]->name, res, ratio, non_order[k],
+                            pow(2.0, non_order[k]));
+                if (N == 25)
+                    cr_expect(res > 1e-6, "%s %s: residual %.2e at N 25: test cannot fail",
+                              S[c].name, non[k]->name, res);
+                else if (res > 1e-9) /* above the floor: the power law */
+                    cr_expect(ratio > non_min_ratio[k], "%s N %d %s: ratio %.1f", S[c].name, N,
+                              non[k]->name, ratio);
+                prev[k] = res;
+            }
+        }
+        gcp_canon_chart_destroy(&ch);
+        sys_free(&S[c]);
+    }
+}
