@@ -33,10 +33,13 @@
  *
  * Inverse (psi, chi) -> (R, Z): Newton with that Jacobian from the last
  * point this chart mapped (aux = (R, Z), an in/out guess): quadratic, two or
- * three field evaluations per inversion at small steps.  Converged when an
- * update falls below 1e-9 of the scale R + |Z| (the next one is then at
- * round-off, ~1e-18 by the quadratic rate, and is not taken: the sample in
- * hand is that of the returned point).  30 iterations or a point off the
+ * three field evaluations per inversion at small steps, one when the guess
+ * is already the solution (the later Newton iterations of a collocation
+ * step).  Converged when an update falls below 1e-15 of the scale R + |Z|
+ * (round-off: the point in hand is kept with its sample), or after an
+ * update below 1e-9 of it (the next one is then at round-off, ~1e-18 by the
+ * quadratic rate, and is not taken: the sample in hand is that of the
+ * returned point).  30 iterations or a point off the
  * half plane R > 0: GCP_STEP_FAILED.
  *
  * Fields with an electric field are refused (the dipole's corotation field
@@ -55,6 +58,7 @@
 
 #define CF_MAXIT 30
 #define CF_DONE 1e-9
+#define CF_ULP 1e-15
 
 /* (R, Z) with psi(R, Z) = psi_t, chi(R, Z) = chi_t, from the guess aux;
  * s gets the field (B, and grad B when need asks) at the point found. */
@@ -81,8 +85,15 @@ static int cf_invert(const struct gcp_field *f, double psi_t, double chi_t, doub
         const double dR = (-BZ * F0 + R * BR * F1) / (R * B2);
         const double dZ = (BR * F0 + R * BZ * F1) / (R * B2);
         if (!isfinite(dR + dZ)) return GCP_STEP_FAILED;
+        const double dn = fabs(dR) + fabs(dZ), scale = R + fabs(Z);
+        if (dn <= CF_ULP * scale) {
+            /* the point in hand is the solution to a few ulp (an update this
+             * small is round-off in psi and chi): keep it and its sample */
+            aux[0] = R, aux[1] = Z;
+            return 0;
+        }
         R += dR, Z += dZ;
-        small = fabs(dR) + fabs(dZ) <= CF_DONE * (R + fabs(Z));
+        small = dn <= CF_DONE * scale;
     }
     return GCP_STEP_FAILED;
 }

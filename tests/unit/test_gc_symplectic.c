@@ -231,3 +231,95 @@ Test(gc_symplectic, one_step_map_is_symplectic, .timeout = 120)
         sys_free(&S[c]);
     }
 }
+
+/* ---- long runs: bounded energy, exact P_phi ---- */
+
+struct lr_ctx {
+    const struct sys *S;
+    int64_t k, every;
+    double H0, P0, mc2;
+    /* least squares of e(t) = E_kin(t)/E_kin(0) - 1 on t, and its range */
+    double n, st, se, stt, ste, emin, emax, maxP;
+};
+
+static int lr_cb(double t, const double X[3], double ppar, void *vctx)
+{
+    struct lr_ctx *c = vctx;
+    if (++c->k % c->every) return 0;
+    double H, P;
+    gcp_gc_energy(c->S->f, 0, c->S->k.q, c->S->k.m, X, ppar, c->S->k.mu, &H);
+    gcp_gc_pphi(c->S->f, 0, c->S->k.q, X, ppar, &P);
+    const double e = (H - c->mc2) / (c->H0 - c->mc2) - 1.0;
+    c->n += 1, c->st += t, c->se += e, c->stt += t * t, c->ste += t * e;
+    c->emin = fmin(c->emin, e), c->emax = fmax(c->emax, e);
+    c->maxP = fmax(c->maxP, fabs(P / c->P0 - 1.0));
+    return 0;
+}
+
+/* Pushes nsteps of h with p; returns the fitted trend |slope| * duration
+ * and the range max e - min e of the kinetic-energy error, and P_phi's. */
+static void long_run(const struct sys *S, const struct gcp_pusher_type *p, double h,
+                     int64_t nsteps, double *trend, double *range, double *maxP)
+{
+    /* every step: a sampling interval near the bounce period would alias
+     * the oscillation into a slow beat, i.e. a spurious trend */
+    struct lr_ctx c = {.S = S, .every = 1,
+                       .mc2 = S->k.m * GC_C * GC_C, .emin = INFINITY, .emax = -INFINITY};
+    gcp_gc_energy(S->f, 0, S->k.q, S->k.m, S->X, S->ppar, S->k.mu, &c.H0);
+    gcp_gc_pphi(S->f, 0, S->k.q, S->X, S->ppar, &c.P0);
+    double X[3] = {S->X[0], S->X[1], S->X[2]}, pp = S->ppar, t = 0.0;
+    const struct gcp_push_opts o = {0.0, h, nsteps, 0.0, 0.0};
+    const int st = gcp_gc_push(S->f, p, S->k.q, S->k.m, &o, &t, X, &pp, S->k.mu, lr_cb, &c);
+    cr_assert_eq(st, GCP_ALIVE, "%s %s: status %d", S->name, p->name, st);
+    const double slope = (c.n * c.ste - c.st * c.se) / (c.n * c.stt - c.st * c.st);
+    *trend = fabs(slope) * t;
+    *range = c.emax - c.emin;
+    *maxP = c.maxP;
+}
+
+/* 25 steps per bounce (the coarse end of the 20-50 the issue asks for),
+ * LR_STEPS = 2e5 steps = 8000 bounces per method and system (the issue
+ * asks 1e7: ~100 s per run here at ~10 us a step, too long for make check
+ * on two shared cores; the 2e5 keep the whole test near 20 s).
+ * Energy: the kinetic-energy error of a symplectic method oscillates with
+ * the bounce and has no secular part; a least-squares line fitted over the
+ * run picks up, from a bounded signal of range A over 8000 periods, a
+ * spurious trend ~A/8000 = 1.3e-4 A, plus the round-off random walk
+ * (~1e-16 sqrt(2e5) = 5e-14): the trend must be below 1e-3 A (the issue's
+ * bound).  P_phi = q psi: exact in exact arithmetic (Noether, as dH/dphi =
+ * 0); each step adds the round-off of the Newton and of the chart's round
+ * trip, ~1e-16: a random walk to ~1e-14 over 2e5 steps; 1e-12 asserted.
+ * The same test fails gc-rk4 at the same cost (a 12x smaller step, the
+ * ratio of gc-gl4's cost per step to gc-rk4's in make bench): its energy
+ * error grows linearly, trend >> 1e-3 of its range, and P_phi drifts. */
+#define LR_STEPS 200000
+Test(gc_symplectic, long_run_energy_bounded_pphi_exact, .timeout = 300)
+{
+    struct sys S[2];
+    sys_dipole(&S[0], "dipole e- 1 MeV", -GCP_E_CHARGE, GCP_M_ELECTRON, 1e6 * GCP_E_CHARGE,
+               30.0 * GCP_PI / 180.0);
+    sys_dipole(&S[1], "dipole p+ 10 MeV", GCP_E_CHARGE, GCP_M_PROTON, 10e6 * GCP_E_CHARGE,
+               30.0 * GCP_PI / 180.0);
+    const struct gcp_pusher_type *sym[] = {&gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4};
+    for (int c = 0; c < 2; c++) {
+        const double h = S[c].Tb / 25;
+        double trend, range, maxP;
+        for (int k = 0; k < 2; k++) {
+            long_run(&S[c], sym[k], h, LR_STEPS, &trend, &range, &maxP);
+            cr_log_info("%-17s %-7s 25/bounce %d steps: energy range %.2e trend %.2e (%.1e of "
+                        "range), P_phi %.1e",
+                        S[c].name, sym[k]->name, LR_STEPS, range, trend, trend / range, maxP);
+            cr_expect(trend < 1e-3 * range, "%s %s: energy trend %.2e vs range %.2e", S[c].name,
+                      sym[k]->name, trend, range);
+            cr_expect(maxP < 1e-12, "%s %s: P_phi %.2e", S[c].name, sym[k]->name, maxP);
+        }
+        long_run(&S[c], &gcp_pusher_gc_rk4, h / 12, 12 * (int64_t)LR_STEPS, &trend, &range, &maxP);
+        cr_log_info("%-17s gc-rk4  300/bounce %d steps: energy range %.2e trend %.2e (%.1e of "
+                    "range), P_phi %.1e",
+                    S[c].name, 12 * LR_STEPS, range, trend, trend / range, maxP);
+        cr_expect(trend > 1e-3 * range, "%s gc-rk4: no drift seen (trend %.2e, range %.2e): "
+                  "the test cannot tell", S[c].name, trend, range);
+        cr_expect(maxP > 1e-12, "%s gc-rk4: P_phi %.2e", S[c].name, maxP);
+        sys_free(&S[c]);
+    }
+}
