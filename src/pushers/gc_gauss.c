@@ -81,6 +81,7 @@ struct gl_lane {
     double z[4];             /* canonical state */
     double aux[GL_SMAX + 1][2]; /* chart guesses: [0] the state, [1 + i] stage i */
     double K[GL_SMAX][2];    /* last step's stage slopes (d eta, d P_eta) */
+    double K2[GL_SMAX][2];   /* the step's before */
     double phidot[GL_SMAX];  /* their dH/dP_phi */
     double J[16];            /* LU of the stage Jacobian (2s x 2s) */
     int piv[4];
@@ -191,8 +192,25 @@ static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, 
     const struct gl_tableau *T = C->tab;
     const int s = T->s, n = 2 * s;
     double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX];
-    if (L->have_K) {
-        /* the slopes' interpolating polynomial (nodes c_j), at 1 + c_i */
+    if (L->have_K >= 2) {
+        /* the slopes of the last two steps (nodes c_j - 2 and c_j - 1 in
+         * units of h) extrapolated by their interpolating polynomial of
+         * degree 2s - 1 to the nodes c_i of this step: error O(h^2s) */
+        double x[2 * GL_SMAX];
+        for (int j = 0; j < s; j++) x[j] = T->c[j] - 2.0, x[s + j] = T->c[j] - 1.0;
+        for (int i = 0; i < s; i++) {
+            K[i][0] = K[i][1] = 0.0;
+            for (int m = 0; m < 2 * s; m++) {
+                double w = 1.0;
+                for (int l = 0; l < 2 * s; l++)
+                    if (l != m) w *= (T->c[i] - x[l]) / (x[m] - x[l]);
+                const double *km = m < s ? L->K2[m] : L->K[m - s];
+                K[i][0] += w * km[0], K[i][1] += w * km[1];
+            }
+        }
+    } else if (L->have_K) {
+        /* the last step's slopes, extrapolated along their interpolating
+         * polynomial (nodes c_j - 1) to c_i: constant for s = 1, linear for 2 */
         for (int i = 0; i < s; i++)
             for (int r = 0; r < 2; r++) {
                 if (s == 1) {
@@ -254,9 +272,10 @@ static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, 
             L->z[0] = remainder(L->z[0] + h * dphi, 2.0 * GCP_PI);
             L->z[1] += h * de;
             L->z[3] += h * dP;
+            memcpy(L->K2, L->K, sizeof K);
             memcpy(L->K, K, sizeof K);
             memcpy(L->phidot, pd, sizeof pd);
-            L->have_K = 1;
+            L->have_K = L->have_K ? 2 : 1;
             return 0;
         }
         nprev = nd;
