@@ -109,7 +109,7 @@ static void lu_solve(const double *a, const int *piv, int n, double *x)
 /* F at (eta, P_eta) with P_phi fixed: g = (d eta, d P_eta) and the
  * quadrature rates qd = (d phi, d t), per unit of the independent variable:
  * time (g = (dH/dP_eta, -dH/deta), qd = (dH/dP_phi, 1)), or, with the
- * Sundman transformation (C->sundman_a > 0), the fictitious time s of the
+ * Sundman transformation (C->sundman_a != 0), the fictitious time s of the
  * extended Hamiltonian K = w(z) (H(z) + p_t), w = (B_ref/|B|)^a:
  *   dz/ds = w J grad H + (H + p_t) J grad w,  dt/ds = w,  dp_t/ds = 0
  * (grad w = -a w grad|B| / |B|; H + p_t = 0 on the orbit, but the term is
@@ -120,7 +120,7 @@ static int gl_rhs(const struct gl_ctx *C, const struct gcp_gc_consts *k, const s
     const double z[4] = {0.0, eta, L->z[2], Peta};
     double H, dH[4];
     int st = C->chart.hamiltonian(&C->chart, k, z, aux, &H, dH);
-    if (C->sundman_a > 0.0 && !st) {
+    if (C->sundman_a != 0.0 && !st) {
         double Bm, dB[4];
         st = C->chart.field_strength(&C->chart, k, z, aux, &Bm, dB);
         const double w = pow(L->Bref / Bm, C->sundman_a), E = H + L->pt;
