@@ -150,7 +150,7 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
         S[i].steps = 0;
         const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
         int st = gcp_gl_init(&C, b, i, o->t0, L);
-        double H, dH[4], Bm, dB[4];
+        double H = NAN, dH[4], Bm = NAN, dB[4];
         if (!st) st = C.chart.hamiltonian(&C.chart, &k, L->z, L->aux[0], &H, dH);
         if (!st) st = C.chart.field_strength(&C.chart, &k, L->z, L->aux[0], &Bm, dB);
         L->t = o->t0, L->pt = -H, L->Bref = Bm;
