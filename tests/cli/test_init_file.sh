@@ -92,13 +92,13 @@ PY
 # Continuation.  Tolerances: boris and gc-rk4 do the same arithmetic in A
 # and in B+C (static field, so a step does not depend on the time it starts
 # at; the state passes through the file as doubles), hence 0; 1e-13 leaves
-# room for a few hundred ulps.  gc-vi's Newton solve scales by the state at
+# room for a few hundred ulps.  gc-midpoint-pphi's Newton solve scales by the state at
 # the start of the push, so C's iterations stop at a point of the same
 # tolerance but a different round-off: each step may differ by its Newton
 # tolerance (VI_TOL = 1e-15 of the scaled state), 100 steps add up to 1e-13;
 # 1e-12 leaves a factor 10.  Any step too many or too
 # few moves the state by v dt ~ 1e-4 of its size, far above every tolerance.
-for case in "boris 2 us 1e-13" "gc-rk4 1 ms 1e-13" "gc-vi 1 ms 1e-12"; do
+for case in "boris 2 us 1e-13" "gc-rk4 1 ms 1e-13" "gc-midpoint-pphi 1 ms 1e-12"; do
     set -- $case
     m=$1 dt="$2 $3" tol=$4
     scene "$m" "$dt" "100 ms" A.h5 > A.run
@@ -115,7 +115,7 @@ done
 # guiding centre untransformed; no full orbit, so x and u are NaN)
 "$PY" - <<'PY' || die "states not used as given"
 import h5py, numpy as np
-with h5py.File("C.h5", "r") as c, h5py.File("gc-vi-p.h5", "r") as p, h5py.File("gc-vi-e.h5", "r") as e:
+with h5py.File("C.h5", "r") as c, h5py.File("gc-midpoint-pphi-p.h5", "r") as p, h5py.File("gc-midpoint-pphi-e.h5", "r") as e:
     for k in ("X", "ppar", "mu"):
         got = c["particles/initial/" + k][()]
         want = np.concatenate([p["particles/initial/" + k][()], e["particles/initial/" + k][()]])
@@ -128,7 +128,7 @@ PY
 # A step in gyro periods of given guiding centres: the shortest
 # 2 pi gamma m / (|q| B(X)) of each population, gamma from ppar and mu,
 # B of the dipole B0 R_E^3 / r^3 sqrt(1 + 3 sin^2 lat) computed here
-scene gc-rk4 "0.5 gyro" "0.5 s" G.h5 gc-vi-p.h5 gc-vi-e.h5 > G.run
+scene gc-rk4 "0.5 gyro" "0.5 s" G.h5 gc-midpoint-pphi-p.h5 gc-midpoint-pphi-e.h5 > G.run
 "$GCPUSH" --quiet G.run || die "gyro-step run failed"
 mv G.h5 G1.h5
 $MPIRUN -np 3 "$GCPUSH" --quiet G.run || die "gyro-step run on 3 ranks failed"
@@ -153,7 +153,7 @@ PY
 
 # duration = dt: exactly one step (full orbit and guiding centre); a
 # duration of 2.5 dt: 3 steps of duration / 3
-for m in boris gc-rk4 gc-vi; do
+for m in boris gc-rk4 gc-midpoint-pphi; do
     scene $m "1 ms" "1 ms" one.h5 $m-p.h5 $m-e.h5 > one.run
     scene $m "1 ms" "2.5 ms" frac.h5 $m-p.h5 $m-e.h5 > frac.run
     "$GCPUSH" --quiet one.run || die "$m: one-step run failed"
