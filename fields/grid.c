@@ -549,3 +549,25 @@ int gcp_field_grid_from_section(struct gcp_section *sec, struct gcp_field **out,
     if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
     return 0;
 }
+
+/* psi with its R, Z derivatives (fields/flux_priv.h): cubic grids only (a
+ * linear interpolant has no second derivatives to give). */
+#include "flux_priv.h"
+
+int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6])
+{
+    const struct grid_params *g = f->params;
+    if (!g->has_psi || g->spl.kind != GCP_SPL_CUBIC) return GCP_ERR_STATE;
+    const double p[2] = {R, Z};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const int outside = gcp_spl_locate(&g->spl, p, 2, &loc);
+    gcp_spl_eval(&g->spl, &loc, g->psi_slot, 2, &o);
+    out[0] = o.f;
+    out[1] = o.d[0];
+    out[2] = o.d[1];
+    out[3] = o.dd[0][0];
+    out[4] = o.dd[0][1];
+    out[5] = o.dd[1][1];
+    return outside ? GCP_LEFT_GRID : 0;
+}

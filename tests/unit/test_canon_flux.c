@@ -1,0 +1,318 @@
+/* Canonical flux charts (src/pushers/canon_flux*.c, issue 11): the chart is
+ * the guiding-centre one-form, checked against the physical GC equations
+ * (gcp_gc_rhs_at, Cary & Brizard 2009) -- an independent reference: the
+ * chart never calls it.
+ *
+ * The check.  The canonical vector field zdot = (dH/dP_phi, dH/dP_eta, 0,
+ * -dH/deta) pushed forward through the chart, d(X, p_par)/dt =
+ * D(from_canon) zdot, is the Euler-Lagrange flow of the chart's one-form
+ * P_phi dphi + P_eta deta - H dt.  It equals the GC equations iff that
+ * one-form is (q A + p_par b).dX - H dt up to an exact differential, so a
+ * chart that drops a term (A_eta, or b_s by tilting the eta lines) fails.
+ * D(from_canon) zdot is the central difference
+ *   D(tau) = [from_canon(z + tau zdot) - from_canon(z - tau zdot)] / (2 tau),
+ * Richardson-extrapolated, (4 D(tau/2) - D(tau))/3: truncation (tau/T)^4
+ * with T the transit time R0/v.  Round-off dominates: p_par comes back from
+ * P_phi - q psi, which cancels like eps |q psi| / (p_par R b_phi) (the ratio of
+ * the minor radius to the poloidal gyroradius, up to 1e5 for a 1 keV
+ * electron: ~1e-11 relative), divided by tau/T.  With tau = 3e-3 T the
+ * measured worst error is 1.7e-9 (7e-10 at 1e-2 T, 2.5e-8 at 1e-4 T: the 1/tau
+ * of round-off). */
+#include <criterion/criterion.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/field.h"
+#include "gcpush/gc.h"
+#include "gcpush/grid.h"
+#include "gcpush/kernels.h"
+#include "gcpush/particles.h"
+#include "pushers/canon_flux_priv.h"
+
+#define C_LIGHT GCP_C_LIGHT
+#define TAU_REL 3e-3 /* finite-difference step / time scale: see the header */
+#define GFILE "fields/data/diiid_184833.geqdsk"
+
+/* xorshift64*: reproducible uniform numbers in [0, 1). */
+static double urand(uint64_t *s)
+{
+    *s ^= *s >> 12, *s ^= *s << 25, *s ^= *s >> 27;
+    return (double)((*s * 2685821657736338717ull) >> 11) * 0x1.0p-53;
+}
+
+static double p_of_T(double T, double m)
+{
+    const double mc2 = m * C_LIGHT * C_LIGHT;
+    return sqrt(T * T + 2.0 * T * mc2) / C_LIGHT;
+}
+
+static double Bmag_at(const struct gcp_field *f, const double X[3], double gB[3])
+{
+    struct gcp_field_sample s = {.need = GCP_NEED_B | GCP_NEED_GRADB};
+    gcp_field_eval(f, 0, X, &s);
+    const double B = sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
+    for (int j = 0; j < 3; j++)
+        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) / B;
+    return B;
+}
+
+/* One random GC state at (R, Z) = point(s, eta) of the chart: species
+ * alternates proton / electron, kinetic energy 1 keV .. 1 MeV (log), pitch
+ * cosine in [-0.95, 0.95]. */
+struct gcstate {
+    struct gcp_gc_consts k;
+    double X[3], ppar, p;
+};
+
+static void random_state(const struct gcp_field *f, double R, double Z, int i, uint64_t *rng,
+                         struct gcstate *g)
+{
+    const int electron = i & 1;
+    g->k.q = electron ? -GCP_E_CHARGE : GCP_E_CHARGE;
+    g->k.m = electron ? GCP_M_ELECTRON : GCP_M_PROTON;
+    const double T = 1e3 * pow(1e3, urand(rng)) * GCP_E_CHARGE;
+    const double xi = -0.95 + 1.9 * urand(rng), ph = 2 * GCP_PI * urand(rng);
+    g->X[0] = R * cos(ph), g->X[1] = R * sin(ph), g->X[2] = Z;
+    g->p = p_of_T(T, g->k.m);
+    g->ppar = g->p * xi;
+    double gB[3];
+    const double B = Bmag_at(f, g->X, gB);
+    g->k.mu = g->p * g->p * (1 - xi * xi) / (2 * g->k.m * B);
+}
+
+/* The canonical flow mapped back to (X, p_par) against gcp_gc_rhs_at, at
+ * state g.  Returns the relative error max(|dX error|/|Xdot|,
+ * |dp error|/F_m), F_m = (mu/gamma)|grad B| the mirror force scale. */
+static double flow_error(const struct gcp_canon_chart *c, const struct gcp_field *f,
+                         const struct gcstate *g, double Tscale)
+{
+    double z[4], aux[2], H, dH[4];
+    /* a wrong chart need not even invert: that fails the check too */
+    if (c->to_canon(c, &g->k, g->X, g->ppar, z, aux) || c->hamiltonian(c, &g->k, z, aux, &H, dH))
+        return INFINITY;
+    const double zd[4] = {dH[2], dH[3], -dH[0], -dH[1]};
+    /* Richardson: D = (4 D(tau/2) - D(tau)) / 3, truncation (tau/T)^4 */
+    double DX[2][3], Dp[2];
+    for (int lvl = 0; lvl < 2; lvl++) {
+        const double tau = (lvl ? 0.5 : 1.0) * TAU_REL * Tscale;
+        double Xp[3], Xm[3], pp, pm, zp[4], zm[4];
+        double ap[2] = {aux[0], aux[1]}, am[2] = {aux[0], aux[1]};
+        for (int j = 0; j < 4; j++) zp[j] = z[j] + tau * zd[j], zm[j] = z[j] - tau * zd[j];
+        if (c->from_canon(c, &g->k, zp, ap, Xp, &pp) || c->from_canon(c, &g->k, zm, am, Xm, &pm))
+            return INFINITY;
+        for (int j = 0; j < 3; j++) DX[lvl][j] = (Xp[j] - Xm[j]) / (2 * tau);
+        Dp[lvl] = (pp - pm) / (2 * tau);
+    }
+    double dX[3], dp;
+    gcp_gc_rhs_at(f, 0, g->k.q, g->k.m, g->X, g->ppar, g->k.mu, dX, &dp);
+    double eX = 0, nX = 0;
+    for (int j = 0; j < 3; j++) {
+        const double d = (4 * DX[1][j] - DX[0][j]) / 3 - dX[j];
+        eX += d * d, nX += dX[j] * dX[j];
+    }
+    double gB[3];
+    const double B = Bmag_at(f, g->X, gB);
+    const double gam = gcp_gc_gamma(g->ppar, g->k.mu, B, g->k.m);
+    const double Fm = g->k.mu / gam * sqrt(gB[0] * gB[0] + gB[1] * gB[1] + gB[2] * gB[2]);
+    const double ep = fabs((4 * Dp[1] - Dp[0]) / 3 - dp) / Fm;
+    return fmax(sqrt(eX / nX), ep);
+}
+
+/* ---- the analytic tokamak ---------------------------------------------- */
+
+/* R0 = 3 m, a = 1 m, B0 = 2.5 T, q = 1.1 .. 3.5 (test_gc_vi.c's). */
+#define TK_R0 3.0
+#define TK_A 1.0
+#define TK_B0 2.5
+
+/* Wrong charts, to show the check can fail: the tokamak's (r, theta) with
+ * A_theta dropped, or with the eta lines tilted, eta' = theta - kappa r
+ * (X_s no longer along grad psi: the dropped b_s = b . dX/ds and A_s make
+ * the one-form wrong). */
+struct wrong_ctx {
+    struct gcp_polchart pc;
+    int kind;     /* 0 no A_eta, 1 tilted */
+    double kappa; /* [1/m] */
+};
+
+static int wrong_map(const void *vctx, double s, double eta, struct gcp_polchart_pt *pt)
+{
+    const struct wrong_ctx *w = vctx;
+    if (w->kind == 0) {
+        const int st = w->pc.map(w->pc.ctx, s, eta, pt);
+        pt->A = pt->A_s = pt->A_e = 0.0;
+        return st;
+    }
+    /* theta = eta' + kappa s: chain rule, d/ds' = d/ds + kappa d/dtheta */
+    const double k = w->kappa;
+    struct gcp_polchart_pt o;
+    const int st = w->pc.map(w->pc.ctx, s, eta + k * s, &o);
+    *pt = o;
+    pt->R_s = o.R_s + k * o.R_e, pt->Z_s = o.Z_s + k * o.Z_e;
+    pt->R_ss = o.R_ss + 2 * k * o.R_se + k * k * o.R_ee;
+    pt->Z_ss = o.Z_ss + 2 * k * o.Z_se + k * k * o.Z_ee;
+    pt->R_se = o.R_se + k * o.R_ee, pt->Z_se = o.Z_se + k * o.Z_ee;
+    pt->A_s = o.A_s + k * o.A_e;
+    pt->psi_s = o.psi_s + k * o.psi_e;
+    return st;
+}
+
+static int wrong_locate(const void *vctx, double R, double Z, double *s, double *eta)
+{
+    const struct wrong_ctx *w = vctx;
+    const int st = w->pc.locate(w->pc.ctx, R, Z, s, eta);
+    if (w->kind == 1) *eta -= w->kappa * *s;
+    return st;
+}
+
+/* Max flow error over n random states in r in [0.05, 0.95] a. */
+static double max_flow_error(const struct gcp_canon_chart *c, const struct gcp_field *f, int n,
+                             double rmin, double rmax)
+{
+    uint64_t rng = 0x9e3779b97f4a7c15ull;
+    double worst = 0;
+    for (int i = 0; i < n; i++) {
+        const double r = rmin + (rmax - rmin) * urand(&rng), th = 2 * GCP_PI * urand(&rng);
+        struct gcstate g;
+        random_state(f, TK_R0 + r * cos(th), r * sin(th), i, &rng, &g);
+        /* transit time scale: a turn around the major radius at v_par */
+        const double gam = sqrt(1 + pow(g.p / (g.k.m * C_LIGHT), 2));
+        const double T = TK_R0 / (g.p / (gam * g.k.m));
+        worst = fmax(worst, flow_error(c, f, &g, T));
+    }
+    return worst;
+}
+
+/* The flow check at 200 random states.  The exact chart leaves the
+ * finite-difference error: measured 1.7e-9 worst; bound 2e-8 (x10).  The wrong charts fail by O(1): dropping
+ * A_theta loses the whole q A . dX (the drift and the mirror force come out
+ * wrong by the ratio of the gyro- to the transit frequency); tilting by
+ * kappa = 2/m makes b_s = kappa h_theta ~ 2 r b_pol (measured 1.8e-2, and
+ * 1.7e2 without A_theta): both > 1e-3. */
+Test(canon_flux, tokamak_flow_equals_gc_equations)
+{
+    struct gcp_field *f = gcp_field_tokamak_create(TK_B0, TK_R0, TK_A, 1.1, 3.5);
+    struct gcp_canon_chart c;
+    char why[200] = "";
+    cr_assert_eq(gcp_canon_chart_flux_create(f, &c, why, sizeof why), 0, "%s", why);
+    const double e = max_flow_error(&c, f, 200, 0.05, 0.95);
+    cr_log_info("tokamak exact chart: worst flow error %.2e", e);
+    cr_expect_lt(e, 2e-8);
+
+    struct gcp_flux_chart *fc = c.data;
+    for (int kind = 0; kind < 2; kind++) {
+        struct wrong_ctx w = {.pc = fc->pc, .kind = kind, .kappa = 2.0};
+        struct gcp_flux_chart wc = *fc;
+        wc.pc.ctx = &w, wc.pc.map = wrong_map, wc.pc.locate = wrong_locate;
+        struct gcp_canon_chart cw = c;
+        cw.data = &wc;
+        const double ew = max_flow_error(&cw, f, 50, 0.05, 0.9);
+        cr_log_info("tokamak wrong chart (%s): worst flow error %.2e",
+                    kind ? "tilted eta lines" : "no A_eta", ew);
+        cr_expect_gt(ew, 1e-3);
+    }
+    c.destroy(c.data);
+    gcp_field_free(f);
+}
+
+/* Round trip and P_phi, at n random states of chart c: from_canon(to_canon(X,
+ * p_par)) gives X back to round-off (Newton from a guess 1e-3 off, so the
+ * solver does the work): |dX| / R < 1e-13 and |dp_par| below 1e-10 of the
+ * momentum -- p_par is recovered from P_phi - q psi, which cancels by up to
+ * the 1e5 of the flow check above: eps * 1e5 ~ 2e-11.  P_phi equals
+ * gcp_gc_pphi (which evaluates q psi + p_par R b_phi through its own
+ * vector potential) to round-off of its largest term, q psi: 1e-13. */
+static void round_trip(const struct gcp_canon_chart *c, const struct gcp_field *f, int n,
+                       double (*point)(uint64_t *, double *, double *), const char *what)
+{
+    uint64_t rng = 0x2545f4914f6cdd1dull;
+    double eX = 0, ep = 0, eP = 0;
+    for (int i = 0; i < n; i++) {
+        double R, Z;
+        point(&rng, &R, &Z);
+        struct gcstate g;
+        random_state(f, R, Z, i, &rng, &g);
+        double z[4], aux[2], X[3], pp, P;
+        cr_assert_eq(c->to_canon(c, &g.k, g.X, g.ppar, z, aux), 0);
+        aux[0] *= 1.001, aux[1] *= 0.999;
+        cr_assert_eq(c->from_canon(c, &g.k, z, aux, X, &pp), 0);
+        eX = fmax(eX, hypot(hypot(X[0] - g.X[0], X[1] - g.X[1]), X[2] - g.X[2]) / R);
+        ep = fmax(ep, fabs(pp - g.ppar) / g.p);
+        gcp_gc_pphi(f, 0, g.k.q, g.X, g.ppar, &P);
+        double psi[6];
+        gcp_field_psi_RZ(f, R, Z, psi);
+        eP = fmax(eP, fabs(z[2] - P) / fabs(g.k.q * psi[0]));
+    }
+    cr_log_info("%s round trip: |dX|/R %.2e, |dp_par|/p %.2e, P_phi vs gcp_gc_pphi %.2e", what,
+                eX, ep, eP);
+    cr_expect_lt(eX, 1e-13);
+    cr_expect_lt(ep, 1e-10);
+    cr_expect_lt(eP, 1e-13);
+}
+
+static double tok_point(uint64_t *rng, double *R, double *Z)
+{
+    const double r = 0.05 + 0.9 * urand(rng), th = 2 * GCP_PI * urand(rng);
+    *R = TK_R0 + r * cos(th), *Z = r * sin(th);
+    return r;
+}
+
+Test(canon_flux, tokamak_round_trip_and_pphi)
+{
+    struct gcp_field *f = gcp_field_tokamak_create(TK_B0, TK_R0, TK_A, 1.1, 3.5);
+    struct gcp_canon_chart c;
+    char why[200] = "";
+    cr_assert_eq(gcp_canon_chart_flux_create(f, &c, why, sizeof why), 0, "%s", why);
+    round_trip(&c, f, 500, tok_point, "tokamak");
+    c.destroy(c.data);
+    gcp_field_free(f);
+}
+
+/* dH is the exact gradient of H(z) (what makes a symplectic integrator on z
+ * symplectic): against Richardson-extrapolated central differences of H.
+ * Momenta: the step that changes H by 1e-4 of the kinetic energy E_k,
+ * error relative to |dH_j|; eta: 1e-3 rad, error relative to E_k per
+ * radian (dH/deta vanishes at the turning points of |B|).  Truncation
+ * (1e-4)^4; round-off eps (m c^2 / E_k) / 1e-4 (H carries the rest energy):
+ * 2e-6 for a 1 keV proton.  Measured 3.7e-6; bound 2e-5.  A dH that misses
+ * any term of the implicit differentiation is off by O(1). */
+Test(canon_flux, tokamak_dH_is_the_gradient_of_H)
+{
+    struct gcp_field *f = gcp_field_tokamak_create(TK_B0, TK_R0, TK_A, 1.1, 3.5);
+    struct gcp_canon_chart c;
+    char why[200] = "";
+    cr_assert_eq(gcp_canon_chart_flux_create(f, &c, why, sizeof why), 0, "%s", why);
+    uint64_t rng = 7;
+    double worst = 0;
+    for (int i = 0; i < 100; i++) {
+        double R, Z;
+        tok_point(&rng, &R, &Z);
+        struct gcstate g;
+        random_state(f, R, Z, i, &rng, &g);
+        double z[4], aux[2], H, dH[4];
+        cr_assert_eq(c.to_canon(&c, &g.k, g.X, g.ppar, z, aux), 0);
+        cr_assert_eq(c.hamiltonian(&c, &g.k, z, aux, &H, dH), 0);
+        const double Ek = H - g.k.m * C_LIGHT * C_LIGHT;
+        for (int j = 1; j < 4; j++) {
+            if (dH[j] == 0.0) continue;
+            double D[2];
+            for (int l = 0; l < 2; l++) {
+                const double h = (l ? 0.5 : 1.0) * (j == 1 ? 1e-3 : 1e-4 * Ek / fabs(dH[j]));
+                double zp[4], zm[4], Hp, Hm, d[4], a[2] = {aux[0], aux[1]};
+                memcpy(zp, z, sizeof zp), memcpy(zm, z, sizeof zm);
+                zp[j] += h, zm[j] -= h;
+                cr_assert_eq(c.hamiltonian(&c, &g.k, zp, a, &Hp, d), 0);
+                cr_assert_eq(c.hamiltonian(&c, &g.k, zm, a, &Hm, d), 0);
+                D[l] = (Hp - Hm) / (2 * h);
+            }
+            const double sc = j == 1 ? Ek : fabs(dH[j]); /* eta: per radian */
+            const double er = fabs((4 * D[1] - D[0]) / 3 - dH[j]) / sc;
+            worst = fmax(worst, er);
+        }
+    }
+    cr_log_info("tokamak: dH against differences of H, worst relative error %.2e", worst);
+    cr_expect_lt(worst, 2e-5);
+    c.destroy(c.data);
+    gcp_field_free(f);
+}
