@@ -203,3 +203,19 @@ int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **ou
     if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "dipole field: out of memory");
     return 0;
 }
+
+/* Flux function and magnetic scalar potential (fields/potential.c):
+ *   psi = R A_phi = -c R^2 / r^3          (B_R = -(1/R) dpsi/dZ = -3 c R Z / r^5,
+ *                                          B_Z = (1/R) dpsi/dR = c (R^2 - 2 Z^2) / r^5),
+ *   chi = -c z / r^3                       (B = -grad chi: c grad(z / r^3) is the B above).
+ * Both with the field's own r^2 floor. */
+int gcp_dipole_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
+                              double *chi)
+{
+    const struct dipole_params *p = f->params;
+    const double r2 = dipole_r2(x[0], x[1], x[2]);
+    const double ir3 = 1.0 / (r2 * sqrt(r2));
+    *psi = -p->c * (x[0] * x[0] + x[1] * x[1]) * ir3;
+    *chi = -p->c * x[2] * ir3;
+    return 0;
+}

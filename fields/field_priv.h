@@ -30,4 +30,12 @@ int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **ou
 int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **out,
                                    struct gcp_error *err);
 
+/* Flux function psi = R A_phi [T m^2] and magnetic scalar potential chi
+ * (B = -grad chi) [T m] of the curl-free axisymmetric models, dispatched to
+ * by gcp_field_flux_potential (potential.c).  0 always. */
+int gcp_dipole_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
+                              double *chi);
+int gcp_mirror_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
+                              double *chi);
+
 #endif

@@ -145,3 +145,18 @@ int gcp_field_mirror_from_section(struct gcp_section *sec, struct gcp_field **ou
     if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "mirror field: out of memory");
     return 0;
 }
+
+/* Flux function and magnetic scalar potential (fields/potential.c), with
+ * k = B0 / Lm^2 and R^2 = x^2 + y^2:
+ *   chi = -Phi = -B0 (z + z^3/(3 Lm^2) - R^2 z/(2 Lm^2))   (B = -grad chi),
+ *   psi = R A_phi = B0 R^2/2 + k (z^2 R^2/2 - R^4/8)
+ *   (B_R = -(1/R) dpsi/dz = -k R z, B_z = (1/R) dpsi/dR = B0 + k (z^2 - R^2/2)). */
+int gcp_mirror_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
+                              double *chi)
+{
+    const struct mirror_params *p = f->params;
+    const double R2 = x[0] * x[0] + x[1] * x[1], z = x[2], k = p->k;
+    *psi = 0.5 * p->B0 * R2 + k * (0.5 * z * z * R2 - 0.125 * R2 * R2);
+    *chi = -(p->B0 * z + k * (z * z * z / 3.0 - 0.5 * R2 * z));
+    return 0;
+}

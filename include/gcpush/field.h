@@ -130,6 +130,15 @@ void gcp_field_eval_block_generic(const struct gcp_field *f, double t, size_t n,
                                   double *By, double *Bz, double *Ex, double *Ey, double *Ez,
                                   int32_t *status);
 
+/* Curl-free axisymmetric fields (dipole, mirror): the flux function
+ * psi = R A_phi [T m^2] (B_R = -(1/R) dpsi/dZ, B_Z = (1/R) dpsi/dR) and the
+ * magnetic scalar potential chi [T m] (B = -grad chi) at x [m].  0, or
+ * GCP_ERR_UNKNOWN when the model has no such pair (a field with currents,
+ * a 3-D field, a callback); psi and chi are then untouched.  Used by the
+ * curl-free canonical chart of the symplectic guiding-centre methods. */
+int gcp_field_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
+                             double *chi);
+
 #ifdef __cplusplus
 }
 #endif

@@ -8,16 +8,24 @@
  *   gc-rk4    classical RK4, fixed step dt
  *   gc-rk45   GSL odeiv2 rkf45, adaptive, tolerance opts->tolerance (default 1e-9)
  *   gc-rk8pd  GSL odeiv2 rk8pd, adaptive (default tolerance 1e-12: the reference)
- *   gc-vi     one-step variational midpoint integrator of the GC phase-space
- *             Lagrangian, exact p_phi in axisymmetric fields (src/pushers/gc_vi.c)
+ *   gc-gl2    symplectic implicit midpoint (Gauss-Legendre, order 2) in the
+ *             canonical chart of an axisymmetric field, exact p_phi (gc_gauss.c)
+ *   gc-gl4    symplectic 2-stage Gauss-Legendre (order 4), the same (gc_gauss.c)
+ *   gc-midpoint-pphi  symmetric midpoint scheme with exact p_phi, order 2, not
+ *             symplectic (formerly gc-vi; src/pushers/gc_midpoint_pphi.c)
+ * gc-gl2/gl4 run in fields with a canonical chart (canon_priv.h: today the
+ * curl-free dipole and mirror), gc-midpoint-pphi in fields with an analytic
+ * vector potential; gcp_pusher_type.applies says which, and why not.
  * All take struct gcp_push_opts; the block's x, y, z hold X, ppar and mu the
  * GC state; ux, uy, uz are untouched.  A lane stops with
  *   NONFINITE      non-finite X or p_par (also at the start),
  *   NONADIABATIC   opts->adiabaticity_max > 0 and gcp_gc_adiabaticity() above
  *                  it (checked at the start of every step), or B*_par <= 0,
  *   STEP_FAILED    dt <= 0 or non-finite; adaptive step size under round-off;
- *                  gc-vi Newton failure after 4 step halvings; a field without
- *                  a vector potential (gc-vi): the state is the last good one,
+ *                  a Newton failure of gc-gl2, gc-gl4, gc-midpoint-pphi (the
+ *                  step is never shortened); a field the method does not
+ *                  apply to (library callers; the scene refuses such runs):
+ *                  the state is the last good one,
  *   the field's own statuses (LEFT_DOMAIN, PRECIPITATED, LEFT_GRID).
  * Fixed-step methods take nsteps steps of dt; adaptive methods integrate each
  * lane to t0 + nsteps dt with their own steps (steps = accepted steps); with
@@ -38,7 +46,9 @@ extern "C" {
 extern const struct gcp_pusher_type gcp_pusher_gc_rk4;
 extern const struct gcp_pusher_type gcp_pusher_gc_rk45;
 extern const struct gcp_pusher_type gcp_pusher_gc_rk8pd;
-extern const struct gcp_pusher_type gcp_pusher_gc_vi;
+extern const struct gcp_pusher_type gcp_pusher_gc_midpoint_pphi;
+extern const struct gcp_pusher_type gcp_pusher_gc_gl2;
+extern const struct gcp_pusher_type gcp_pusher_gc_gl4;
 
 /* Default tolerances of the adaptive methods when opts->tolerance == 0. */
 #define GCP_GC_RK45_TOL 1e-9

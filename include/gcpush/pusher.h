@@ -70,6 +70,12 @@ struct gcp_pusher_type {
     gcp_kick_batch_fn kick;    /* full orbit: the momentum update (NULL for guiding centre) */
     gcp_kick_B_batch_fn kick_B;/* full orbit, optional: the same with E = 0 (fewer operations) */
     gcp_advance_fn advance;    /* the block push: every pusher has one */
+    /* Optional (NULL: every field): 0 when the method can push in field f,
+     * else non-zero with `why` saying why not (e.g. the symplectic
+     * guiding-centre methods need an axisymmetric field with a canonical
+     * chart).  The scene asks before a run, so that no run starts in which
+     * every particle would fail. */
+    int (*applies)(const struct gcp_field *f, char *why, size_t whylen);
 };
 
 extern const struct gcp_pusher_type gcp_pusher_boris;

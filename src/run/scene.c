@@ -389,11 +389,26 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     s = gcp_run_file_section(rf, "integrator");
     char method[32];
     if ((rc = gcp_section_string(s, "method", 1, method, sizeof method, err)) < 0) return rc;
+    /* gc-vi was renamed (issue 11): it is a midpoint scheme with exact p_phi,
+     * neither variational nor symplectic.  No silent alias: a run file that
+     * asked for a variational integrator learns what it gets instead. */
+    if (strcmp(method, "gc-vi") == 0)
+        return gcp_section_error(s, "method", err, GCP_ERR_UNKNOWN,
+                                 "gc-vi is gone: it was not a variational integrator; use "
+                                 "gc-gl2 or gc-gl4 (symplectic, exact p_phi) or "
+                                 "gc-midpoint-pphi (the same scheme under its honest name)");
     if (!(sc->pusher = gcp_pusher_lookup(method)))
         return gcp_section_error(s, "method", err, GCP_ERR_UNKNOWN,
                                  "unknown method '%s' (boris, boris-zu, vay, higuera-cary, "
-                                 "gc-rk4, gc-rk45, gc-rk8pd, gc-vi)",
+                                 "gc-rk4, gc-rk45, gc-rk8pd, gc-gl2, gc-gl4, gc-midpoint-pphi)",
                                  method);
+    /* A method that cannot push in this field is refused here, before any
+     * particle runs (never a run in which every particle fails). */
+    char why[512];
+    if (sc->pusher->applies && sc->pusher->applies(sc->field, why, sizeof why))
+        return gcp_section_error(s, "method", err, GCP_ERR_VALUE,
+                                 "method '%s' cannot run in the %s field: %s", method,
+                                 sc->field->type->name, why);
     if ((rc = gcp_section_time(s, "dt", 1, &sc->dt_given, &sc->dt_period, err)) < 0) return rc;
     if ((rc = positive(s, "dt", sc->dt_given, err))) return rc;
     /* adaptive methods: dt is the first trial step, tolerance the error per step */

@@ -238,6 +238,14 @@ static int parse_section(const struct gcp_scene *sc, struct gcp_run_file *rf,
 {
     int rc;
     if ((rc = method_list(s, sp, err))) return rc;
+    for (size_t i = 0; i < sp->nmethods; i++) {
+        char why[512];
+        const struct gcp_pusher_type *p = sp->methods[i];
+        if (p->applies && p->applies(sc->field, why, sizeof why))
+            return gcp_section_error(s, "methods", err, GCP_ERR_VALUE,
+                                     "method '%s' cannot run in the %s field: %s", p->name,
+                                     sc->field->type->name, why);
+    }
     int nfixed = 0, nadapt = 0;
     for (size_t i = 0; i < sp->nmethods; i++) *(adaptive(sp->methods[i]) ? &nadapt : &nfixed) += 1;
     const int hasdt = gcp_section_get(s, "dt", NULL) != NULL;

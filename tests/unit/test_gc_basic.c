@@ -315,15 +315,16 @@ Test(gc_basic, battery_field_null_nonadiabatic)
 }
 
 /* Step failures: the adaptive methods with an impossible tolerance
- * (1e-30, below round-off: the step size collapses to round-off), gc-vi
- * with a step of 50 bounce periods (Newton fails even after 4 halvings).
+ * (1e-30, below round-off: the step size collapses to round-off), the
+ * implicit fixed-step methods (gc-midpoint-pphi, gc-gl2, gc-gl4) with a step
+ * of 50 bounce periods (Newton fails; the step is never shortened).
  * The lane gets STEP_FAILED with the state of its last accepted step: a
  * valid GC state whose energy equals the initial one to 1e-9 (the energy
- * error of a few accepted steps, if any), at a time before the end; gc-vi
- * fails on its first step, so its state and time are exactly the initial
+ * error of a few accepted steps, if any), at a time before the end; the
+ * implicit methods fail on its first step, so its state and time are exactly the initial
  * ones.  (Tolerance and dt are per block, so here every lane fails; the
  * per-lane isolation is shown by the NaN and null batteries above.)  And
- * gc-vi on a field without a vector potential (a user callback) gives
+ * gc-midpoint-pphi on a field without a vector potential (a user callback) gives
  * STEP_FAILED, while the uniform field has one. */
 
 Test(gc_basic, battery_step_failed_state_restored)
@@ -339,7 +340,7 @@ Test(gc_basic, battery_step_failed_state_restored)
         cr_assert_eq(gcp_block_alloc(&b, 1), 0);
         b.q = GCP_E_CHARGE, b.m = GCP_M_PROTON;
         fill_lane(&b, 0, X, ppar, mu);
-        const int vi = gc_is(p, "gc-vi");
+        const int vi = gc_is(p, "gc-midpoint-pphi") || gc_is(p, "gc-gl2") || gc_is(p, "gc-gl4");
         const struct gcp_push_opts o = {0.0, vi ? 50 * Tb : Tb / 100, vi ? 1 : 100,
                                         vi ? 0.0 : 1e-30, 0.0};
         p->advance(&b, f, p, &o, NULL);
@@ -361,8 +362,8 @@ Test(gc_basic, battery_step_failed_state_restored)
         cr_assert_eq(gcp_block_alloc(&b, 1), 0);
         b.q = GCP_E_CHARGE, b.m = GCP_M_PROTON;
         fill_lane(&b, 0, (const double[3]){1, 2, 3}, 1e-22, 1e-20);
-        const size_t live = gcp_pusher_gc_vi.advance(&b, k ? cb : u, &gcp_pusher_gc_vi, &o, NULL);
-        cr_expect_eq(live, k ? 0u : 1u, "gc-vi live lanes %zu (field %d)", live, k);
+        const size_t live = gcp_pusher_gc_midpoint_pphi.advance(&b, k ? cb : u, &gcp_pusher_gc_midpoint_pphi, &o, NULL);
+        cr_expect_eq(live, k ? 0u : 1u, "gc-midpoint-pphi live lanes %zu (field %d)", live, k);
         cr_expect_eq(b.status[0], k ? GCP_STEP_FAILED : GCP_ALIVE);
         cr_expect(!k || (b.x[0] == 1 && b.ppar[0] == 1e-22));
         gcp_block_free(&b);

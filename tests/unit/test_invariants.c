@@ -488,11 +488,11 @@ static void gc_K(const char *method, const char *species, double W)
     gcp_field_free(f);
 }
 
-Test(invariants_gc, vi_electron_1MeV_Lstar_K_drift) { gc_long("gc-vi", "electron", 1.0 * MEV, 80); }
-Test(invariants_gc, vi_proton_10MeV_Lstar_K_drift) { gc_long("gc-vi", "proton", 10.0 * MEV, 100); }
+Test(invariants_gc, vi_electron_1MeV_Lstar_K_drift) { gc_long("gc-midpoint-pphi", "electron", 1.0 * MEV, 80); }
+Test(invariants_gc, vi_proton_10MeV_Lstar_K_drift) { gc_long("gc-midpoint-pphi", "proton", 10.0 * MEV, 100); }
 Test(invariants_gc, rk4_proton_10MeV_Lstar_K_drift) { gc_long("gc-rk4", "proton", 10.0 * MEV, 400); }
-Test(invariants_gc, vi_electron_1MeV_K_Bm_theory) { gc_K("gc-vi", "electron", 1.0 * MEV); }
-Test(invariants_gc, vi_proton_10MeV_K_Bm_theory) { gc_K("gc-vi", "proton", 10.0 * MEV); }
+Test(invariants_gc, vi_electron_1MeV_K_Bm_theory) { gc_K("gc-midpoint-pphi", "electron", 1.0 * MEV); }
+Test(invariants_gc, vi_proton_10MeV_K_Bm_theory) { gc_K("gc-midpoint-pphi", "proton", 10.0 * MEV); }
 Test(invariants_gc, rk4_electron_1MeV_K_Bm_theory) { gc_K("gc-rk4", "electron", 1.0 * MEV); }
 Test(invariants_gc, rk4_proton_10MeV_K_Bm_theory) { gc_K("gc-rk4", "proton", 10.0 * MEV); }
 

@@ -1,0 +1,187 @@
+/* The curl-free canonical chart: guiding centres in a curl-free
+ * axisymmetric magnetic field (the dipole, the mirror), issue 11.
+ *
+ * Geometry.  A curl-free axisymmetric field without B_phi is at once
+ *   B = grad psi x grad phi = -grad chi,
+ * psi = R A_phi the flux function (B_R = -(1/R) dpsi/dZ, B_Z = (1/R) dpsi/dR)
+ * and chi the magnetic scalar potential (gcp_field_flux_potential).  The
+ * coordinates (psi, chi, phi) are orthogonal (grad psi . grad chi =
+ * -R (B x phihat) . B = 0), b = B/|B| has only a chi component,
+ *   b . dX = -grad chi . dX / |B| = -dchi / |B|,
+ * and A = A_phi phihat gives q A . dX = q A_phi R dphi = q psi dphi.  The
+ * guiding-centre one-form (Littlejohn 1983; Cary & Brizard 2009)
+ *   theta = (q A + p_par b) . dX = q psi dphi + (-p_par/|B|) dchi
+ * is therefore canonical in z = (phi, chi, P_phi, P_chi):
+ *   P_phi = q psi,   P_chi = -p_par / |B(psi, chi)|,
+ * with the Hamiltonian (relativistic, mu constant)
+ *   H(z) = gamma m c^2,  gamma = sqrt(1 + (p_par/mc)^2 + 2 mu |B| / (m c^2)),
+ *   p_par = -P_chi |B(psi, chi)|,  psi = P_phi / q.
+ *
+ * Derivatives.  With v_par = p_par / (gamma m), dH/dp_par = v_par and
+ * dH/d|B| (p_par fixed) = mu / gamma, and p_par = -P_chi |B|:
+ *   dH/dP_chi = -|B| v_par,
+ *   dH/dchi   = (p_par v_par / |B| + mu / gamma) d|B|/dchi,
+ *   dH/dP_phi = (p_par v_par / |B| + mu / gamma) d|B|/dpsi / q,
+ *   dH/dphi   = 0 (axisymmetry: P_phi is exactly conserved by any
+ *               Runge-Kutta method, a discrete Noether invariant).
+ * d|B|/d(psi, chi) from grad|B| (d|B|/dx_j = b_i dB_i/dx_j) by the chain rule
+ * through the inverse of the Jacobian of (psi, chi) in (R, Z),
+ *   d(psi, chi)/d(R, Z) = [[R B_Z, -R B_R], [-B_R, -B_Z]],  det = -R |B|^2,
+ *   dR/dpsi = B_Z / (R B^2),  dZ/dpsi = -B_R / (R B^2),
+ *   dR/dchi = -B_R / B^2,     dZ/dchi = -B_Z / B^2   (dX/dchi = -B / B^2).
+ * Check: dchi/dt = dH/dP_chi = -|B| v_par = grad chi . v_par b.
+ *
+ * Inverse (psi, chi) -> (R, Z): Newton with that Jacobian from the last
+ * point this chart mapped (aux = (R, Z), an in/out guess): quadratic, two or
+ * three field evaluations per inversion at small steps, one when the guess
+ * is already the solution (the later Newton iterations of a collocation
+ * step).  Converged when an update falls below 1e-15 of the scale R + |Z|
+ * (round-off: the point in hand is kept with its sample), or after an
+ * update below 1e-9 of it (the next one is then at round-off, ~1e-18 by the
+ * quadratic rate, and is not taken: the sample in hand is that of the
+ * returned point).  30 iterations or a point off the
+ * half plane R > 0: GCP_STEP_FAILED.
+ *
+ * Fields with an electric field are refused (the dipole's corotation field
+ * would add q Omega psi = Omega P_phi to H, but the chart would then need
+ * the model's Omega; not done, see the report of issue 11).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "gcpush/error.h"
+#include "gcpush/field.h"
+#include "gcpush/kernels.h"
+#include "gcpush/particles.h"
+#include "canon_priv.h"
+
+#define CF_MAXIT 30
+#define CF_DONE 1e-9
+#define CF_ULP 1e-15
+
+/* (R, Z) with psi(R, Z) = psi_t, chi(R, Z) = chi_t, from the guess aux;
+ * s gets the field (B, and grad B when need asks) at the point found. */
+static int cf_invert(const struct gcp_field *f, double psi_t, double chi_t, double aux[2],
+                     unsigned need, struct gcp_field_sample *s)
+{
+    double R = aux[0], Z = aux[1];
+    int small = 0;
+    for (int it = 0; it < CF_MAXIT; it++) {
+        if (!(R > 0.0) || !isfinite(Z)) return GCP_STEP_FAILED;
+        const double x[3] = {R, 0.0, Z};
+        double psi, chi;
+        s->need = need | GCP_NEED_B;
+        const int st = gcp_field_eval(f, 0.0, x, s);
+        if (st) return st;
+        gcp_field_flux_potential(f, x, &psi, &chi);
+        if (small) {
+            aux[0] = R, aux[1] = Z;
+            return 0;
+        }
+        const double BR = s->B[0], BZ = s->B[2], B2 = BR * BR + BZ * BZ;
+        const double F0 = psi - psi_t, F1 = chi - chi_t;
+        /* d = -J^{-1} F, J^{-1} = [[-B_Z, R B_R], [B_R, R B_Z]] / (-R B^2) */
+        const double dR = (-BZ * F0 + R * BR * F1) / (R * B2);
+        const double dZ = (BR * F0 + R * BZ * F1) / (R * B2);
+        if (!isfinite(dR + dZ)) return GCP_STEP_FAILED;
+        const double dn = fabs(dR) + fabs(dZ), scale = R + fabs(Z);
+        if (dn <= CF_ULP * scale) {
+            /* the point in hand is the solution to a few ulp (an update this
+             * small is round-off in psi and chi): keep it and its sample */
+            aux[0] = R, aux[1] = Z;
+            return 0;
+        }
+        R += dR, Z += dZ;
+        small = dn <= CF_DONE * scale;
+    }
+    return GCP_STEP_FAILED;
+}
+
+static int cf_to_canon(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                       const double X[3], double ppar, double z[4], double aux[2])
+{
+    const double R = hypot(X[0], X[1]);
+    const double x[3] = {R, 0.0, X[2]};
+    struct gcp_field_sample s = {.need = GCP_NEED_B};
+    const int st = gcp_field_eval(c->field, 0.0, x, &s);
+    double psi, chi;
+    gcp_field_flux_potential(c->field, x, &psi, &chi);
+    const double Bm = sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
+    z[0] = atan2(X[1], X[0]);
+    z[1] = chi;
+    z[2] = k->q * psi;
+    z[3] = -ppar / Bm;
+    aux[0] = R, aux[1] = X[2];
+    if (st) return st;
+    return isfinite(z[1] + z[2] + z[3]) && R > 0.0 ? 0 : GCP_NONFINITE;
+}
+
+static int cf_from_canon(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                         const double z[4], double aux[2], double X[3], double *ppar)
+{
+    struct gcp_field_sample s;
+    const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_B, &s);
+    if (st) return st;
+    const double Bm = sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
+    X[0] = aux[0] * cos(z[0]);
+    X[1] = aux[0] * sin(z[0]);
+    X[2] = aux[1];
+    *ppar = -z[3] * Bm;
+    return 0;
+}
+
+static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                          const double z[4], double aux[2], double *H, double dH[4])
+{
+    struct gcp_field_sample s;
+    const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_GRADB, &s);
+    if (st) return st;
+    const double R = aux[0];
+    const double BR = s.B[0], BZ = s.B[2];
+    const double B2 = BR * BR + s.B[1] * s.B[1] + BZ * BZ, Bm = sqrt(B2);
+    /* grad|B| in the phi = 0 half plane: (R, Z) components */
+    double gB[3];
+    for (int j = 0; j < 3; j += 2)
+        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) / Bm;
+    const double dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
+    const double dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+    const double ppar = -z[3] * Bm;
+    const double gamma = gcp_gc_gamma(ppar, k->mu, Bm, k->m);
+    const double vpar = ppar / (gamma * k->m);
+    const double w = ppar * vpar / Bm + k->mu / gamma;
+    *H = gamma * k->m * GCP_C_LIGHT * GCP_C_LIGHT;
+    dH[0] = 0.0;
+    dH[1] = w * dBdchi;
+    dH[2] = w * dBdpsi / k->q;
+    dH[3] = -Bm * vpar;
+    return isfinite(*H + dH[1] + dH[2] + dH[3]) ? 0 : GCP_NONFINITE;
+}
+
+int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_chart *out,
+                                    char *why, size_t whylen)
+{
+    const double probe[3] = {1.0, 0.0, 1.0};
+    double psi, chi;
+    const char *no = NULL;
+    if (!f->axisymmetric)
+        no = "the field is not axisymmetric (no ignorable angle to make canonical)";
+    else if (gcp_field_flux_potential(f, probe, &psi, &chi) != 0)
+        no = "the field has no flux function and magnetic scalar potential pair "
+             "(not a curl-free axisymmetric model)";
+    else if (f->has_E)
+        no = "the curl-free chart has no electric potential (switch corotation off)";
+    else if (f->time_dependent)
+        no = "the field is time dependent";
+    if (no) {
+        if (why && whylen) snprintf(why, whylen, "%s", no);
+        return GCP_ERR_STATE;
+    }
+    memset(out, 0, sizeof *out);
+    out->name = "curl-free";
+    out->field = f;
+    out->to_canon = cf_to_canon;
+    out->from_canon = cf_from_canon;
+    out->hamiltonian = cf_hamiltonian;
+    return 0;
+}

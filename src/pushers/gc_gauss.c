@@ -1,0 +1,385 @@
+/* gc-gl2, gc-gl4: symplectic guiding-centre integrators, Gauss-Legendre
+ * collocation on the canonical guiding-centre equations (issue 11).
+ *
+ * In a canonical chart (canon_priv.h: z = (phi, eta, P_phi, P_eta),
+ * theta = P_phi dphi + P_eta deta) the guiding-centre motion is Hamilton's
+ *   dz/dt = F(z) = (dH/dP_phi, dH/dP_eta, -dH/dphi = 0, -dH/deta).
+ * The s-stage Gauss-Legendre Runge-Kutta method (Butcher 1964)
+ *   K_i = F(z0 + h sum_j a_ij K_j),   z1 = z0 + h sum_i b_i K_i,
+ *   s = 1: a = 1/2, b = 1, c = 1/2            (implicit midpoint, order 2),
+ *   s = 2: c = 1/2 -+ sqrt(3)/6, b = 1/2, 1/2,
+ *          a = [[1/4, 1/4 - sqrt(3)/6], [1/4 + sqrt(3)/6, 1/4]]   (order 4),
+ * satisfies b_i a_ij + b_j a_ji = b_i b_j, hence is symplectic for every
+ * canonical Hamiltonian system (Sanz-Serna 1988; Hairer, Lubich & Wanner,
+ * Geometric Numerical Integration, 2nd ed., thm. VI.4.3), and it is
+ * symmetric.  As the chart is a symplectic map of (X, p_par) with the
+ * guiding-centre two-form d theta, the method is symplectic for the guiding
+ * centre: the energy error stays bounded (no secular drift) and, H being
+ * independent of phi, P_phi is exactly constant (discrete Noether).
+ *
+ * Unknowns.  F does not depend on phi, and its P_phi row is 0, so P_phi
+ * stays P_phi(z0) at every stage, phi is a quadrature
+ * (phi1 = phi0 + h sum b_i dH/dP_phi(Y_i)), and the stage equations are
+ * solved for the 2s unknowns K_i = (deta/dt, dP_eta/dt) at the stages only.
+ *
+ * Solver: Newton on G(K) = K_i - F(Y_i(K)) with the Jacobian
+ * delta_ij I - h a_ij DF(Y_i) (DF the 2x2 Jacobian of (dH/dP_eta, -dH/deta)
+ * in (eta, P_eta) by forward differences, 1e-7 of the lane's scales),
+ * kept across steps while the iteration contracts at least 10x per
+ * iteration, refreshed once per step otherwise (a simplified Newton).
+ * Predictor: the previous step's stage slopes extrapolated along their
+ * interpolating polynomial (constant for s = 1, linear for s = 2), or F(z0)
+ * at the first step.  Converged when the update of the stage values,
+ * relative to the lane's scales, is <= 1e-15, or has stalled at round-off
+ * (<= 1e-12 and no longer halving): the test is on the increment, never a
+ * fixed count.  40 iterations without convergence, a non-finite value, or a
+ * chart failure: the lane gets GCP_STEP_FAILED with the state of the start
+ * of the step (the step is never shortened).
+ *
+ * State.  The canonical z of each lane is kept between the steps of one
+ * advance, so that the map applied is exactly the symplectic map; X, p_par
+ * are mapped back from z after every step for the samplers and the domain
+ * checks.  phi is kept in [-pi, pi] (an angle grown to 1e3 rad would have
+ * an ulp above the Newton tolerance).
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "gcpush/error.h"
+#include "gcpush/gc.h"
+#include "gcpush/particles.h"
+#include "block_priv.h"
+#include "canon_priv.h"
+#include "gc_priv.h"
+
+#define GL_SMAX 2
+#define GL_MAXIT 40
+#define GL_TOL 1e-15
+#define GL_FLOOR 1e-12
+#define GL_FD 1e-7
+
+struct gl_tableau {
+    int s;
+    double a[GL_SMAX][GL_SMAX], b[GL_SMAX], c[GL_SMAX];
+};
+
+/* sqrt(3)/6 */
+#define GL_R36 0.28867513459481288225
+static const struct gl_tableau gl2 = {1, {{0.5}}, {1.0}, {0.5}};
+static const struct gl_tableau gl4 = {2,
+                                      {{0.25, 0.25 - GL_R36}, {0.25 + GL_R36, 0.25}},
+                                      {0.5, 0.5},
+                                      {0.5 - GL_R36, 0.5 + GL_R36}};
+
+struct gl_ctx {
+    const struct gl_tableau *tab;
+    struct gcp_canon_chart chart;
+};
+
+struct gl_lane {
+    double z[4];             /* canonical state */
+    double aux[GL_SMAX + 1][2]; /* chart guesses: [0] the state, [1 + i] stage i */
+    double K[GL_SMAX][2];    /* last step's stage slopes (d eta, d P_eta) */
+    double phidot[GL_SMAX];  /* their dH/dP_phi */
+    double J[16];            /* LU of the stage Jacobian (2s x 2s) */
+    int piv[4];
+    int have_K, have_J;
+    double sc[2];            /* [eta unit, P_eta unit] scales of eta and P_eta */
+    double hJ;               /* step of the kept Jacobian */
+};
+
+/* LU with partial pivoting of an n x n (n <= 4) row-major matrix. */
+static int lu_n(double *a, int *piv, int n)
+{
+    for (int k = 0; k < n; k++) {
+        int pk = k;
+        for (int i = k + 1; i < n; i++)
+            if (fabs(a[n * i + k]) > fabs(a[n * pk + k])) pk = i;
+        piv[k] = pk;
+        if (!(a[n * pk + k] != 0.0) || !isfinite(a[n * pk + k])) return -1;
+        if (pk != k)
+            for (int j = 0; j < n; j++) {
+                const double t = a[n * k + j];
+                a[n * k + j] = a[n * pk + j];
+                a[n * pk + j] = t;
+            }
+        for (int i = k + 1; i < n; i++) {
+            const double l = a[n * i + k] / a[n * k + k];
+            a[n * i + k] = l;
+            for (int j = k + 1; j < n; j++) a[n * i + j] -= l * a[n * k + j];
+        }
+    }
+    return 0;
+}
+
+static void lu_solve(const double *a, const int *piv, int n, double *x)
+{
+    for (int k = 0; k < n; k++) {
+        const double t = x[k];
+        x[k] = x[piv[k]];
+        x[piv[k]] = t;
+    }
+    for (int k = 0; k < n; k++)
+        for (int i = k + 1; i < n; i++) x[i] -= a[n * i + k] * x[k];
+    for (int k = n - 1; k >= 0; k--) {
+        for (int j = k + 1; j < n; j++) x[k] -= a[n * k + j] * x[j];
+        x[k] /= a[n * k + k];
+    }
+}
+
+/* F at (eta, P_eta) with P_phi fixed: g = (dH/dP_eta, -dH/deta), dH/dP_phi. */
+static int gl_rhs(const struct gl_ctx *C, const struct gcp_gc_consts *k, double Pphi, double eta,
+                  double Peta, double aux[2], double g[2], double *phidot)
+{
+    const double z[4] = {0.0, eta, Pphi, Peta};
+    double H, dH[4];
+    const int st = C->chart.hamiltonian(&C->chart, k, z, aux, &H, dH);
+    g[0] = dH[3];
+    g[1] = -dH[1];
+    *phidot = dH[2];
+    return st;
+}
+
+/* The stage Jacobian delta_ij I - h a_ij DF(Y_i), DF by forward differences. */
+static int gl_jacobian(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                       double h, const double Y[GL_SMAX][2], const double g[GL_SMAX][2])
+{
+    const int s = C->tab->s, n = 2 * s;
+    memset(L->J, 0, sizeof L->J);
+    for (int i = 0; i < s; i++) {
+        double DF[2][2];
+        for (int c = 0; c < 2; c++) {
+            double y[2] = {Y[i][0], Y[i][1]};
+            const double e = GL_FD * L->sc[c];
+            y[c] += e;
+            double gk[2], pd, aux[2] = {L->aux[1 + i][0], L->aux[1 + i][1]};
+            if (gl_rhs(C, k, L->z[2], y[0], y[1], aux, gk, &pd)) return -1;
+            const double ec = y[c] - Y[i][c];
+            DF[0][c] = (gk[0] - g[i][0]) / ec;
+            DF[1][c] = (gk[1] - g[i][1]) / ec;
+        }
+        for (int j = 0; j < s; j++)
+            for (int r = 0; r < 2; r++)
+                for (int c = 0; c < 2; c++)
+                    L->J[n * (2 * i + r) + 2 * j + c] =
+                        (i == j && r == c ? 1.0 : 0.0) - h * C->tab->a[i][j] * DF[r][c];
+    }
+    L->hJ = h;
+    L->have_J = lu_n(L->J, L->piv, n) == 0;
+    return L->have_J ? 0 : -1;
+}
+
+/* The update h A d of the stage values, relative to the lane's scales. */
+static double gl_update_norm(const struct gl_tableau *T, const struct gl_lane *L, double h,
+                             const double d[4])
+{
+    double nd = 0.0;
+    for (int i = 0; i < T->s; i++)
+        for (int r = 0; r < 2; r++) {
+            double acc = 0.0;
+            for (int j = 0; j < T->s; j++) acc += T->a[i][j] * d[2 * j + r];
+            nd = fmax(nd, fabs(h * acc) / L->sc[r]);
+        }
+    return nd;
+}
+
+/* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged). */
+static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                         double h)
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s, n = 2 * s;
+    double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX];
+    if (L->have_K) {
+        /* the slopes' interpolating polynomial (nodes c_j), at 1 + c_i */
+        for (int i = 0; i < s; i++)
+            for (int r = 0; r < 2; r++) {
+                if (s == 1) {
+                    K[i][r] = L->K[0][r];
+                } else {
+                    const double x = 1.0 + T->c[i];
+                    const double w0 = (x - T->c[1]) / (T->c[0] - T->c[1]);
+                    K[i][r] = w0 * L->K[0][r] + (1.0 - w0) * L->K[1][r];
+                }
+            }
+    } else {
+        double g0[2], p0, aux[2] = {L->aux[0][0], L->aux[0][1]};
+        if (gl_rhs(C, k, L->z[2], L->z[1], L->z[3], aux, g0, &p0)) return GCP_STEP_FAILED;
+        for (int i = 0; i < s; i++) K[i][0] = g0[0], K[i][1] = g0[1];
+    }
+    if (L->have_J && L->hJ != h) L->have_J = 0;
+    int refreshed = 0;
+    double nprev = INFINITY;
+    for (int it = 0; it < GL_MAXIT; it++) {
+        double G[4];
+        for (int i = 0; i < s; i++) {
+            for (int r = 0; r < 2; r++) {
+                double acc = 0.0;
+                for (int j = 0; j < s; j++) acc += T->a[i][j] * K[j][r];
+                Y[i][r] = L->z[1 + 2 * r] + h * acc;
+            }
+            if (gl_rhs(C, k, L->z[2], Y[i][0], Y[i][1], L->aux[1 + i], g[i], &pd[i]))
+                return GCP_STEP_FAILED;
+            G[2 * i] = -(K[i][0] - g[i][0]);
+            G[2 * i + 1] = -(K[i][1] - g[i][1]);
+        }
+        if (!L->have_J) {
+            if (gl_jacobian(C, k, L, h, Y, g)) return GCP_STEP_FAILED;
+            refreshed = 1;
+        }
+        double d[4];
+        memcpy(d, G, sizeof d);
+        lu_solve(L->J, L->piv, n, d);
+        double nd = gl_update_norm(T, L, h, d);
+        if (!isfinite(nd)) return GCP_STEP_FAILED;
+        if (it > 0 && nd > 0.1 * nprev && nd > GL_TOL && !refreshed) {
+            /* slow contraction with a kept Jacobian: refresh it once, redo the update */
+            if (gl_jacobian(C, k, L, h, Y, g)) return GCP_STEP_FAILED;
+            refreshed = 1;
+            memcpy(d, G, sizeof d);
+            lu_solve(L->J, L->piv, n, d);
+            nd = gl_update_norm(T, L, h, d);
+            if (!isfinite(nd)) return GCP_STEP_FAILED;
+        }
+        for (int i = 0; i < s; i++) K[i][0] += d[2 * i], K[i][1] += d[2 * i + 1];
+        const int stalled = it > 0 && nd <= GL_FLOOR && nd > 0.5 * nprev;
+        if (nd <= GL_TOL || stalled) {
+            double de = 0.0, dP = 0.0, dphi = 0.0;
+            for (int i = 0; i < s; i++) {
+                de += T->b[i] * K[i][0];
+                dP += T->b[i] * K[i][1];
+                dphi += T->b[i] * pd[i];
+            }
+            L->z[0] = remainder(L->z[0] + h * dphi, 2.0 * GCP_PI);
+            L->z[1] += h * de;
+            L->z[3] += h * dP;
+            memcpy(L->K, K, sizeof K);
+            memcpy(L->phidot, pd, sizeof pd);
+            L->have_K = 1;
+            return 0;
+        }
+        nprev = nd;
+    }
+    return GCP_STEP_FAILED;
+}
+
+static int gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t, void *vlane)
+{
+    const struct gl_ctx *C = vctx;
+    struct gl_lane *L = vlane;
+    memset(L, 0, sizeof *L);
+    const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
+    const double X[3] = {b->x[i], b->y[i], b->z[i]};
+    const int st = C->chart.to_canon(&C->chart, &k, X, b->ppar[i], L->z, L->aux[0]);
+    if (st) return st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
+    for (int j = 1; j <= GL_SMAX; j++) L->aux[j][0] = L->aux[0][0], L->aux[j][1] = L->aux[0][1];
+    /* Scales of the Newton test (any chart): eta's change over a displacement
+     * of |X| (largest of the three axes, by differences over 1e-4 |X|), and
+     * P_eta's change for a change |p| of p_par. */
+    const double r = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
+    double zp[4], auxp[2];
+    L->sc[0] = 0.0;
+    for (int j = 0; j < 3; j++) {
+        double Xp[3] = {X[0], X[1], X[2]};
+        Xp[j] += 1e-4 * r;
+        if (C->chart.to_canon(&C->chart, &k, Xp, b->ppar[i], zp, auxp)) continue;
+        L->sc[0] = fmax(L->sc[0], fabs(zp[1] - L->z[1]) * 1e4);
+    }
+    struct gcp_field_sample fs = {.need = GCP_NEED_B};
+    gcp_field_eval(C->chart.field, t, X, &fs);
+    const double Bm = sqrt(fs.B[0] * fs.B[0] + fs.B[1] * fs.B[1] + fs.B[2] * fs.B[2]);
+    const double p = fabs(b->ppar[i]) + sqrt(2.0 * b->m * fmax(b->mu[i], 0.0) * Bm);
+    if (C->chart.to_canon(&C->chart, &k, X, b->ppar[i] + p, zp, auxp)) return GCP_STEP_FAILED;
+    L->sc[1] = fabs(zp[3] - L->z[3]);
+    if (!(L->sc[0] > 0.0 && isfinite(L->sc[0]) && L->sc[1] > 0.0 && isfinite(L->sc[1])))
+        return GCP_STEP_FAILED;
+    return 0;
+}
+
+static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, double h,
+                   void *vlane)
+{
+    (void)t;
+    const struct gl_ctx *C = vctx;
+    struct gl_lane *L = vlane;
+    const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
+    const struct gl_lane save = *L;
+    int r = gl_step_canon(C, &k, L, h);
+    double X[3], ppar;
+    if (!r) r = C->chart.from_canon(&C->chart, &k, L->z, L->aux[0], X, &ppar);
+    if (r) {
+        /* nothing of the failed step is kept */
+        *L = save;
+        return r == GCP_NONFINITE ? r : GCP_STEP_FAILED;
+    }
+    b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
+    b->ppar[i] = ppar;
+    b->fstatus[i] = 0;
+    return 0;
+}
+
+static const struct gcp_gc_lane_ops gl_ops = {sizeof(struct gl_lane), gl_init, gl_step};
+
+static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
+                         const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                         const struct gcp_sampler *s, const struct gl_tableau *tab)
+{
+    (void)p;
+    struct gl_ctx C = {tab, {0}};
+    char why[256];
+    if (gcp_canon_chart_create(f, &C.chart, why, sizeof why)) {
+        /* the scene refuses such runs before they start (gcp_pusher_type.applies);
+         * a library caller gets STEP_FAILED on every lane */
+        size_t n = b->n_active;
+        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        b->n_active = gcp_block_retire(b, n, o->t0, 0);
+        return b->n_active;
+    }
+    const size_t n = gcp_gc_lanes_advance(b, f, o, s, &gl_ops, &C);
+    gcp_canon_chart_destroy(&C.chart);
+    return n;
+}
+
+static size_t gl2_advance(struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                          const struct gcp_sampler *s)
+{
+    return gl_advance(b, f, p, o, s, &gl2);
+}
+
+static size_t gl4_advance(struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                          const struct gcp_sampler *s)
+{
+    return gl_advance(b, f, p, o, s, &gl4);
+}
+
+/* A method needing a canonical chart applies where one exists. */
+static int gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen)
+{
+    struct gcp_canon_chart c;
+    if (gcp_canon_chart_create(f, &c, why, whylen)) return GCP_ERR_STATE;
+    gcp_canon_chart_destroy(&c);
+    return 0;
+}
+
+const struct gcp_pusher_type gcp_pusher_gc_gl2 = {
+    .name = "gc-gl2",
+    .doc = "guiding centre, symplectic implicit midpoint (Gauss-Legendre, order 2) in canonical "
+           "coordinates, exact p_phi (axisymmetric fields with a canonical chart)",
+    .order = 2,
+    .kind = GCP_GUIDING_CENTRE,
+    .advance = gl2_advance,
+    .applies = gc_canon_applies,
+};
+
+const struct gcp_pusher_type gcp_pusher_gc_gl4 = {
+    .name = "gc-gl4",
+    .doc = "guiding centre, symplectic 2-stage Gauss-Legendre (order 4) in canonical "
+           "coordinates, exact p_phi (axisymmetric fields with a canonical chart)",
+    .order = 4,
+    .kind = GCP_GUIDING_CENTRE,
+    .advance = gl4_advance,
+    .applies = gc_canon_applies,
+};
