@@ -31,6 +31,7 @@
  * the chart is polar) GCP_STEP_FAILED from the inversion.
  */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -49,17 +50,25 @@
 #define PSIN_MAX 0.9  /* edge of the chart in psi_N */
 #define RHO_REF 0.6
 
+/* The table: immutable once built, shared (reference counted) by every
+ * chart of fields with the same fingerprint (see the cache below). */
 struct numchart {
-    const struct gcp_field *f;
+    const struct gcp_field *f; /* during construction only (NULL after) */
+    int refs;                  /* holders (charts and the cache), under cache_lock */
     struct gcp_spl spl; /* (rho, eta): 0 R, 1 Z, 2 A_eta */
     double Ra, Za;      /* [m] magnetic axis (of the field's psi) */
     double psia, dpsi;  /* [Wb/rad] psi on axis, psi_edge - psi_axis */
     double rho_max;
 };
 
-static void num_free(void *p)
+/* What a chart's map and locate see: the field and the shared table. */
+struct numview {
+    const struct gcp_field *f;
+    struct numchart *t;
+};
+
+static void table_free(struct numchart *n)
 {
-    struct numchart *n = p;
     if (!n) return;
     gcp_spl_free(&n->spl);
     free(n);
@@ -72,7 +81,8 @@ static double wrap_eta(double eta)
 
 static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
 {
-    const struct numchart *n = ctx;
+    const struct numview *v = ctx;
+    const struct numchart *n = v->t;
     const double x[2] = {s, wrap_eta(eta)};
     struct gcp_spl_loc loc;
     struct gcp_spl_out o[3];
@@ -85,7 +95,7 @@ static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt
     pt->R_ss = o[0].dd[0][0], pt->R_se = o[0].dd[0][1], pt->R_ee = o[0].dd[1][1];
     pt->Z_ss = o[1].dd[0][0], pt->Z_se = o[1].dd[0][1], pt->Z_ee = o[1].dd[1][1];
     double ps[6];
-    const int st = gcp_field_psi_RZ(n->f, pt->R, pt->Z, ps);
+    const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
     pt->psi = ps[0];
     pt->psi_s = ps[1] * pt->R_s + ps[2] * pt->Z_s;
     pt->psi_e = ps[1] * pt->R_e + ps[2] * pt->Z_e;
@@ -98,22 +108,23 @@ static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt
  * once per particle, in to_canon), with the eta step kept below one node. */
 static int num_locate(const void *ctx, double R, double Z, double *s, double *eta)
 {
-    const struct numchart *n = ctx;
+    const struct numview *v = ctx;
+    const struct numchart *n = v->t;
     double ps[6];
-    if (gcp_field_psi_RZ(n->f, R, Z, ps)) return GCP_LEFT_DOMAIN;
+    if (gcp_field_psi_RZ(v->f, R, Z, ps)) return GCP_LEFT_DOMAIN;
     const double psiN = (ps[0] - n->psia) / n->dpsi;
     if (!(psiN <= PSIN_MAX)) return GCP_LEFT_DOMAIN;
     double rho = sqrt(fmax(psiN, 0.0)), e = 0.0, best = INFINITY;
     for (int j = 0; j < NETA; j++) {
         struct gcp_polchart_pt p;
         const double ej = -GCP_PI + 2.0 * GCP_PI * j / NETA;
-        num_map(n, rho, ej, &p);
+        num_map(v, rho, ej, &p);
         const double dd = hypot(p.R - R, p.Z - Z);
         if (dd < best) best = dd, e = ej;
     }
     for (int it = 0; it < 60; it++) {
         struct gcp_polchart_pt p;
-        num_map(n, rho, e, &p);
+        num_map(v, rho, e, &p);
         const double fR = p.R - R, fZ = p.Z - Z;
         const double det = p.R_s * p.Z_e - p.R_e * p.Z_s;
         if (!(det != 0.0)) return GCP_STEP_FAILED;
@@ -226,20 +237,11 @@ static int ref_point(const struct numchart *n, double pn, double eta, double y[5
     return 0;
 }
 
-int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char *why,
-                       size_t whylen)
+/* Builds the table of f (axis guess Ra, Za; boundary flux pe).  0, or
+ * GCP_ERR_STATE / GCP_ERR_NOMEM with why filled. */
+static int table_build(const struct gcp_field *f, double Ra, double Za, double pe,
+                       struct numchart **out, char *why, size_t whylen)
 {
-    double Ra, Za, pe, ps[6];
-    if (gcp_field_psi_RZ(f, 0.0, 0.0, ps) == GCP_ERR_STATE) {
-        snprintf(why, whylen, "the field has no flux function psi (a grid needs psi and cubic "
-                              "interpolation)");
-        return GCP_ERR_STATE;
-    }
-    if (gcp_field_flux_surfaces(f, &Ra, &Za, &pe)) {
-        snprintf(why, whylen, "the field does not say where its closed flux surfaces are "
-                              "(magnetic axis and boundary flux)");
-        return GCP_ERR_STATE;
-    }
     struct numchart *n = calloc(1, sizeof *n);
     double *tab = malloc(3 * NRHO * (NETA + 2 * NPAD) * sizeof *tab);
     if (!n || !tab) {
@@ -321,12 +323,123 @@ int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char
         free(n);
         return rc;
     }
-    c->pc.ctx = n;
+    n->f = NULL;
+    n->refs = 1;
+    *out = n;
+    return 0;
+}
+
+/* ---- one table per equilibrium ----------------------------------------------
+ * Building a table takes ~1 s (NETA x NRHO rk8pd steps of 13 evaluations of
+ * psi and B); a chart is created wherever a method needs one (every
+ * advance of a block, the scene's check).  So the tables are cached, one
+ * entry, keyed by a fingerprint of the field: its type, the flux-surface
+ * data, and psi with its derivatives and B at 8 points about the axis,
+ * compared bit for bit.  Two fields with the same fingerprint are the same
+ * equilibrium (one file loaded twice, or one field freed and another at its
+ * address with the same data): the table depends only on psi and B.  The
+ * table never holds the field (each chart's view does).  The entry and the
+ * reference counts are guarded by a spin lock (C11 atomic_flag), so charts
+ * may be created and destroyed from several threads. */
+#define NFP (3 + 8 * 9)
+
+static atomic_flag cache_lock = ATOMIC_FLAG_INIT;
+static struct numchart *cache_t;
+static const void *cache_type;
+static double cache_fp[NFP];
+
+static void lock(void)
+{
+    while (atomic_flag_test_and_set_explicit(&cache_lock, memory_order_acquire)) {
+    }
+}
+
+static void unlock(void) { atomic_flag_clear_explicit(&cache_lock, memory_order_release); }
+
+static void fingerprint(const struct gcp_field *f, double Ra, double Za, double pe,
+                        double fp[NFP])
+{
+    fp[0] = Ra, fp[1] = Za, fp[2] = pe;
+    const double d = 0.05 * fabs(Ra);
+    for (int j = 0; j < 8; j++) {
+        const double R = Ra + d * cos(j * GCP_PI / 4), Z = Za + d * sin(j * GCP_PI / 4);
+        double *o = fp + 3 + 9 * j;
+        gcp_field_psi_RZ(f, R, Z, o);
+        const double X[3] = {R, 0.0, Z};
+        struct gcp_field_sample s = {.need = GCP_NEED_B};
+        gcp_field_eval(f, 0.0, X, &s);
+        o[6] = s.B[0], o[7] = s.B[1], o[8] = s.B[2];
+    }
+}
+
+static void table_release(struct numchart *t)
+{
+    lock();
+    const int last = --t->refs == 0;
+    unlock();
+    if (last) table_free(t);
+}
+
+static void view_free(void *p)
+{
+    struct numview *v = p;
+    if (!v) return;
+    table_release(v->t);
+    free(v);
+}
+
+int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char *why,
+                       size_t whylen)
+{
+    double Ra, Za, pe, ps[6];
+    if (gcp_field_psi_RZ(f, 0.0, 0.0, ps) == GCP_ERR_STATE) {
+        snprintf(why, whylen, "the field has no flux function psi (a grid needs psi and cubic "
+                              "interpolation)");
+        return GCP_ERR_STATE;
+    }
+    if (gcp_field_flux_surfaces(f, &Ra, &Za, &pe)) {
+        snprintf(why, whylen, "the field does not say where its closed flux surfaces are "
+                              "(magnetic axis and boundary flux)");
+        return GCP_ERR_STATE;
+    }
+    struct numview *v = malloc(sizeof *v);
+    if (!v) {
+        snprintf(why, whylen, "out of memory");
+        return GCP_ERR_NOMEM;
+    }
+    double fp[NFP];
+    fingerprint(f, Ra, Za, pe, fp);
+    struct numchart *t = NULL;
+    lock();
+    if (cache_t && cache_type == (const void *)f->type && memcmp(fp, cache_fp, sizeof fp) == 0) {
+        t = cache_t;
+        t->refs++;
+    }
+    unlock();
+    if (!t) {
+        const int rc = table_build(f, Ra, Za, pe, &t, why, whylen);
+        if (rc) {
+            free(v);
+            return rc;
+        }
+        struct numchart *old = NULL;
+        lock();
+        old = cache_t;
+        cache_t = t;
+        t->refs++; /* the cache's reference */
+        cache_type = (const void *)f->type;
+        memcpy(cache_fp, fp, sizeof fp);
+        unlock();
+        if (old) table_release(old);
+    }
+    v->f = f;
+    v->t = t;
+    c->pc.ctx = v;
     c->pc.map = num_map;
     c->pc.locate = num_locate;
-    c->pc.s_max = n->rho_max;
+    c->pc.s_max = t->rho_max;
     c->pc.what = "tabulated orthogonal (rho, eta), rho = sqrt(psi_N)";
-    c->owned = n;
-    c->free_ctx = num_free;
+    c->owned = v;
+    c->free_ctx = view_free;
     return 0;
 }
