@@ -117,19 +117,24 @@ static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_const
 }
 
 /* Newton for w = (s, p) with G(w; eta) = P.  aux is the guess in, the
- * solution out.  Converged when the step is below 1e-11 of the scales;
- * then one more step (quadratic convergence puts it at round-off) and the
- * point is evaluated there.  s is kept above 0 (the axis, where J = 0). */
+ * solution out.  Once the relative step is below 1e-10 (quadratic
+ * convergence: the next is at round-off) the iteration runs until the step
+ * no longer halves or is below 1e-15, and stops at that point: the round-off
+ * floor of p_par, which P_phi - q psi determines with a cancellation of
+ * ~|q psi| / (p R), is reached without a fixed tolerance that the floor
+ * could exceed.  The point is evaluated where it stops.  s is kept above 0
+ * (the axis, where J = 0). */
 static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
                       const double z[4], double aux[2], struct fpoint *o)
 {
     double s = aux[0], p = aux[1];
     if (!(isfinite(s) && isfinite(p) && isfinite(z[1] + z[2] + z[3]))) return GCP_STEP_FAILED;
     const double sscale = c->pc.s_max;
-    int close = 0;
-    for (int it = 0; it < 40; it++) {
+    double eprev = INFINITY;
+    int done = 0;
+    for (int it = 0; it < 60; it++) {
         const int st = fpoint_eval(c, k, s, z[1], p, o);
-        if (close) {
+        if (done) {
             aux[0] = s, aux[1] = p;
             return st;
         }
@@ -138,12 +143,20 @@ static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts
         if (!(det != 0.0) || !isfinite(det)) return GCP_STEP_FAILED;
         const double ds = -(o->Gw[1][1] * r0 - o->Gw[0][1] * r1) / det;
         const double dp = -(-o->Gw[1][0] * r0 + o->Gw[0][0] * r1) / det;
-        close = fabs(ds) < 1e-11 * sscale && fabs(dp) < 1e-11 * o->pscale;
+        const double e = fmax(fabs(ds) / sscale, fabs(dp) / o->pscale);
+        if (eprev < 1e-10 && (e > 0.5 * eprev || e < 1e-15)) {
+            /* at the floor: this step is noise (or nothing); take it only
+             * when it is still a real improvement */
+            if (e < 1e-15) s += ds, p += dp;
+            done = 1;
+            continue;
+        }
         double sn = s + ds;
         if (!(sn > 0.0)) sn = 0.5 * s; /* never through the axis */
         if (sn > 2.0 * sscale) sn = 0.5 * (s + 2.0 * sscale);
         s = sn;
         p += dp;
+        eprev = e;
     }
     return GCP_STEP_FAILED;
 }
