@@ -20,6 +20,7 @@ int gcp_field_flux_surfaces(const struct gcp_field *f, double *R_axis, double *Z
 {
     if (f->type == &gcp_field_tokamak) return gcp_tokamak_flux_surfaces(f, R_axis, Z_axis, psi_edge);
     if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_flux_surfaces(f, R_axis, Z_axis, psi_edge);
+    if (f->type == &gcp_field_grid) return gcp_grid_flux_surfaces(f, R_axis, Z_axis, psi_edge);
     return GCP_ERR_STATE;
 }
 

@@ -59,5 +59,6 @@ int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za,
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6]);
 int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
+int gcp_grid_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 
 #endif
