@@ -8,6 +8,8 @@
 #ifndef GCPUSH_FLUX_PRIV_H
 #define GCPUSH_FLUX_PRIV_H
 
+#include <stddef.h>
+
 #include "gcpush/field.h"
 
 /* psi and its R, Z derivatives up to second order at (R, Z):
@@ -59,6 +61,7 @@ int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za,
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6]);
 int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
+int gcp_grid_psi_lattice(const struct gcp_field *f, double x0[2], double h[2], size_t n[2]);
 int gcp_grid_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 
 #endif
