@@ -268,7 +268,7 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
         gsl_odeiv2_driver_alloc_y_new(&sys, gsl_odeiv2_step_rk8pd, 1e-3 * drho, 1e-13, 1e-13);
     const double rho_ref = RHO_REF * n->rho_max;
     int rc = d ? 0 : GCP_ERR_NOMEM;
-    gsl_set_error_handler_off();
+    gsl_error_handler_t *old_handler = gsl_set_error_handler_off();
     for (int j = 0; j < NETA && !rc; j++) {
         const double eta = -GCP_PI + j * deta;
         double y0[5];
@@ -294,6 +294,7 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
         }
     }
     if (d) gsl_odeiv2_driver_free(d);
+    gsl_set_error_handler(old_handler);
     if (rc) {
         snprintf(why, whylen, "tracing the gradient lines of psi failed (status %d): are the "
                               "flux surfaces closed up to psi_N = %g inside the field's domain?",
