@@ -11,6 +11,10 @@
  *   gc-gl2    symplectic implicit midpoint (Gauss-Legendre, order 2) in the
  *             canonical chart of an axisymmetric field, exact p_phi (gc_gauss.c)
  *   gc-gl4    symplectic 2-stage Gauss-Legendre (order 4), the same (gc_gauss.c)
+ *   gc-gl2-sundman, gc-gl4-sundman  the same with symplectic adaptive steps:
+ *             fixed step in s of the Sundman-transformed extended Hamiltonian,
+ *             dt = (B_start/|B|) ds, dt of the options = ds (gc_sundman.c);
+ *             lanes land exactly on sampling times and t0 + nsteps dt
  *   gc-midpoint-pphi  symmetric midpoint scheme with exact p_phi, order 2, not
  *             symplectic (formerly gc-vi; src/pushers/gc_midpoint_pphi.c)
  * gc-gl2/gl4 run in fields with a canonical chart (canon_priv.h: today the
@@ -49,6 +53,8 @@ extern const struct gcp_pusher_type gcp_pusher_gc_rk8pd;
 extern const struct gcp_pusher_type gcp_pusher_gc_midpoint_pphi;
 extern const struct gcp_pusher_type gcp_pusher_gc_gl2;
 extern const struct gcp_pusher_type gcp_pusher_gc_gl4;
+extern const struct gcp_pusher_type gcp_pusher_gc_gl2_sundman;
+extern const struct gcp_pusher_type gcp_pusher_gc_gl4_sundman;
 
 /* Default tolerances of the adaptive methods when opts->tolerance == 0. */
 #define GCP_GC_RK45_TOL 1e-9

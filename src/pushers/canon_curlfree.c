@@ -131,21 +131,33 @@ static int cf_from_canon(const struct gcp_canon_chart *c, const struct gcp_gc_co
     return 0;
 }
 
-static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
-                          const double z[4], double aux[2], double *H, double dH[4])
+/* |B| at z and its derivatives d|B|/d(psi, chi) (see the header). */
+static int cf_strength(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                       const double z[4], double aux[2], double *Bm, double *dBdpsi,
+                       double *dBdchi)
 {
     struct gcp_field_sample s;
     const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_GRADB, &s);
     if (st) return st;
     const double R = aux[0];
     const double BR = s.B[0], BZ = s.B[2];
-    const double B2 = BR * BR + s.B[1] * s.B[1] + BZ * BZ, Bm = sqrt(B2);
+    const double B2 = BR * BR + s.B[1] * s.B[1] + BZ * BZ;
+    *Bm = sqrt(B2);
     /* grad|B| in the phi = 0 half plane: (R, Z) components */
     double gB[3];
     for (int j = 0; j < 3; j += 2)
-        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) / Bm;
-    const double dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
-    const double dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) / *Bm;
+    *dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
+    *dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+    return 0;
+}
+
+static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                          const double z[4], double aux[2], double *H, double dH[4])
+{
+    double Bm, dBdpsi, dBdchi;
+    const int st = cf_strength(c, k, z, aux, &Bm, &dBdpsi, &dBdchi);
+    if (st) return st;
     const double ppar = -z[3] * Bm;
     const double gamma = gcp_gc_gamma(ppar, k->mu, Bm, k->m);
     const double vpar = ppar / (gamma * k->m);
@@ -156,6 +168,19 @@ static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_c
     dH[2] = w * dBdpsi / k->q;
     dH[3] = -Bm * vpar;
     return isfinite(*H + dH[1] + dH[2] + dH[3]) ? 0 : GCP_NONFINITE;
+}
+
+static int cf_field_strength(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                             const double z[4], double aux[2], double *Bm, double dBm[4])
+{
+    double dBdpsi, dBdchi;
+    const int st = cf_strength(c, k, z, aux, Bm, &dBdpsi, &dBdchi);
+    if (st) return st;
+    dBm[0] = 0.0;
+    dBm[1] = dBdchi;
+    dBm[2] = dBdpsi / k->q;
+    dBm[3] = 0.0;
+    return 0;
 }
 
 int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_chart *out,
@@ -183,5 +208,6 @@ int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_
     out->to_canon = cf_to_canon;
     out->from_canon = cf_from_canon;
     out->hamiltonian = cf_hamiltonian;
+    out->field_strength = cf_field_strength;
     return 0;
 }

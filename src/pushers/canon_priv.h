@@ -62,6 +62,11 @@ struct gcp_canon_chart {
     int (*hamiltonian)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
                        const double z[4], double aux[2], double *H, double dH[4]);
     void (*destroy)(void *data);
+    /* Optional (NULL: not provided; added for the Sundman time transformation
+     * of gc-gl2-sundman / gc-gl4-sundman): |B| [T] at z and d|B|/dz.
+     * 0 or a particle status. */
+    int (*field_strength)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                          const double z[4], double aux[2], double *Bm, double dBm[4]);
 };
 
 /* Builds a chart for field f (the first constructor in canon_chart.c that

@@ -19,7 +19,8 @@
 static const struct gcp_pusher_type *const all_pushers[] = {
     &gcp_pusher_boris, &gcp_pusher_boris_zu, &gcp_pusher_vay, &gcp_pusher_higuera_cary,
     &gcp_pusher_gc_rk4, &gcp_pusher_gc_rk45, &gcp_pusher_gc_rk8pd,
-    &gcp_pusher_gc_midpoint_pphi, &gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4, NULL};
+    &gcp_pusher_gc_midpoint_pphi, &gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4,
+    &gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman, NULL};
 
 const struct gcp_pusher_type *const *gcp_pusher_types(void) { return all_pushers; }
 

@@ -51,43 +51,21 @@
 #include "gcpush/particles.h"
 #include "block_priv.h"
 #include "canon_priv.h"
+#include "gc_gauss_priv.h"
 #include "gc_priv.h"
 
-#define GL_SMAX 2
 #define GL_MAXIT 40
 #define GL_TOL 1e-15
 #define GL_FLOOR 1e-12
 #define GL_FD 1e-7
 
-struct gl_tableau {
-    int s;
-    double a[GL_SMAX][GL_SMAX], b[GL_SMAX], c[GL_SMAX];
-};
-
+const struct gl_tableau gcp_gl2_tableau = {1, {{0.5}}, {1.0}, {0.5}};
 /* sqrt(3)/6 */
 #define GL_R36 0.28867513459481288225
-static const struct gl_tableau gl2 = {1, {{0.5}}, {1.0}, {0.5}};
-static const struct gl_tableau gl4 = {2,
-                                      {{0.25, 0.25 - GL_R36}, {0.25 + GL_R36, 0.25}},
-                                      {0.5, 0.5},
-                                      {0.5 - GL_R36, 0.5 + GL_R36}};
-
-struct gl_ctx {
-    const struct gl_tableau *tab;
-    struct gcp_canon_chart chart;
-};
-
-struct gl_lane {
-    double z[4];             /* canonical state */
-    double aux[GL_SMAX + 1][2]; /* chart guesses: [0] the state, [1 + i] stage i */
-    double K[GL_SMAX][2];    /* last step's stage slopes (d eta, d P_eta) */
-    double phidot[GL_SMAX];  /* their dH/dP_phi */
-    double J[16];            /* LU of the stage Jacobian (2s x 2s) */
-    int piv[4];
-    int have_K, have_J;
-    double sc[2];            /* [eta unit, P_eta unit] scales of eta and P_eta */
-    double hJ;               /* step of the kept Jacobian */
-};
+const struct gl_tableau gcp_gl4_tableau = {2,
+                                           {{0.25, 0.25 - GL_R36}, {0.25 + GL_R36, 0.25}},
+                                           {0.5, 0.5},
+                                           {0.5 - GL_R36, 0.5 + GL_R36}};
 
 /* LU with partial pivoting of an n x n (n <= 4) row-major matrix. */
 static int lu_n(double *a, int *piv, int n)
@@ -128,16 +106,35 @@ static void lu_solve(const double *a, const int *piv, int n, double *x)
     }
 }
 
-/* F at (eta, P_eta) with P_phi fixed: g = (dH/dP_eta, -dH/deta), dH/dP_phi. */
-static int gl_rhs(const struct gl_ctx *C, const struct gcp_gc_consts *k, double Pphi, double eta,
-                  double Peta, double aux[2], double g[2], double *phidot)
+/* F at (eta, P_eta) with P_phi fixed: g = (d eta, d P_eta) and the
+ * quadrature rates qd = (d phi, d t), per unit of the independent variable:
+ * time (g = (dH/dP_eta, -dH/deta), qd = (dH/dP_phi, 1)), or, with the
+ * Sundman transformation (C->sundman_a != 0), the fictitious time s of the
+ * extended Hamiltonian K = w(z) (H(z) + p_t), w = (B_ref/|B|)^a:
+ *   dz/ds = w J grad H + (H + p_t) J grad w,  dt/ds = w,  dp_t/ds = 0
+ * (grad w = -a w grad|B| / |B|; H + p_t = 0 on the orbit, but the term is
+ * kept: without it the map is not symplectic in the extended space). */
+static int gl_rhs(const struct gl_ctx *C, const struct gcp_gc_consts *k, const struct gl_lane *L,
+                  double eta, double Peta, double aux[2], double g[2], double qd[2])
 {
-    const double z[4] = {0.0, eta, Pphi, Peta};
+    const double z[4] = {0.0, eta, L->z[2], Peta};
     double H, dH[4];
-    const int st = C->chart.hamiltonian(&C->chart, k, z, aux, &H, dH);
+    int st = C->chart.hamiltonian(&C->chart, k, z, aux, &H, dH);
+    if (C->sundman_a != 0.0 && !st) {
+        double Bm, dB[4];
+        st = C->chart.field_strength(&C->chart, k, z, aux, &Bm, dB);
+        const double w = pow(L->Bref / Bm, C->sundman_a), E = H + L->pt;
+        const double dw = -C->sundman_a * w / Bm; /* times dB_j */
+        g[0] = w * dH[3] + E * dw * dB[3];
+        g[1] = -(w * dH[1] + E * dw * dB[1]);
+        qd[0] = w * dH[2] + E * dw * dB[2];
+        qd[1] = w;
+        return st ? st : (isfinite(g[0] + g[1] + qd[0] + qd[1]) ? 0 : GCP_NONFINITE);
+    }
     g[0] = dH[3];
     g[1] = -dH[1];
-    *phidot = dH[2];
+    qd[0] = dH[2];
+    qd[1] = 1.0;
     return st;
 }
 
@@ -153,8 +150,8 @@ static int gl_jacobian(const struct gl_ctx *C, const struct gcp_gc_consts *k, st
             double y[2] = {Y[i][0], Y[i][1]};
             const double e = GL_FD * L->sc[c];
             y[c] += e;
-            double gk[2], pd, aux[2] = {L->aux[1 + i][0], L->aux[1 + i][1]};
-            if (gl_rhs(C, k, L->z[2], y[0], y[1], aux, gk, &pd)) return -1;
+            double gk[2], pd[2], aux[2] = {L->aux[1 + i][0], L->aux[1 + i][1]};
+            if (gl_rhs(C, k, L, y[0], y[1], aux, gk, pd)) return -1;
             const double ec = y[c] - Y[i][c];
             DF[0][c] = (gk[0] - g[i][0]) / ec;
             DF[1][c] = (gk[1] - g[i][1]) / ec;
@@ -185,14 +182,31 @@ static double gl_update_norm(const struct gl_tableau *T, const struct gl_lane *L
 }
 
 /* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged). */
-static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
                          double h)
 {
     const struct gl_tableau *T = C->tab;
     const int s = T->s, n = 2 * s;
-    double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX];
-    if (L->have_K) {
-        /* the slopes' interpolating polynomial (nodes c_j), at 1 + c_i */
+    double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2];
+    if (L->have_K >= 2) {
+        /* the slopes of the last two steps (nodes c_j - 2 and c_j - 1 in
+         * units of h) extrapolated by their interpolating polynomial of
+         * degree 2s - 1 to the nodes c_i of this step: error O(h^2s) */
+        double x[2 * GL_SMAX];
+        for (int j = 0; j < s; j++) x[j] = T->c[j] - 2.0, x[s + j] = T->c[j] - 1.0;
+        for (int i = 0; i < s; i++) {
+            K[i][0] = K[i][1] = 0.0;
+            for (int m = 0; m < 2 * s; m++) {
+                double w = 1.0;
+                for (int l = 0; l < 2 * s; l++)
+                    if (l != m) w *= (T->c[i] - x[l]) / (x[m] - x[l]);
+                const double *km = m < s ? L->K2[m] : L->K[m - s];
+                K[i][0] += w * km[0], K[i][1] += w * km[1];
+            }
+        }
+    } else if (L->have_K) {
+        /* the last step's slopes, extrapolated along their interpolating
+         * polynomial (nodes c_j - 1) to c_i: constant for s = 1, linear for 2 */
         for (int i = 0; i < s; i++)
             for (int r = 0; r < 2; r++) {
                 if (s == 1) {
@@ -204,8 +218,8 @@ static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, 
                 }
             }
     } else {
-        double g0[2], p0, aux[2] = {L->aux[0][0], L->aux[0][1]};
-        if (gl_rhs(C, k, L->z[2], L->z[1], L->z[3], aux, g0, &p0)) return GCP_STEP_FAILED;
+        double g0[2], p0[2], aux[2] = {L->aux[0][0], L->aux[0][1]};
+        if (gl_rhs(C, k, L, L->z[1], L->z[3], aux, g0, p0)) return GCP_STEP_FAILED;
         for (int i = 0; i < s; i++) K[i][0] = g0[0], K[i][1] = g0[1];
     }
     if (L->have_J && L->hJ != h) L->have_J = 0;
@@ -219,7 +233,7 @@ static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, 
                 for (int j = 0; j < s; j++) acc += T->a[i][j] * K[j][r];
                 Y[i][r] = L->z[1 + 2 * r] + h * acc;
             }
-            if (gl_rhs(C, k, L->z[2], Y[i][0], Y[i][1], L->aux[1 + i], g[i], &pd[i]))
+            if (gl_rhs(C, k, L, Y[i][0], Y[i][1], L->aux[1 + i], g[i], pd[i]))
                 return GCP_STEP_FAILED;
             G[2 * i] = -(K[i][0] - g[i][0]);
             G[2 * i + 1] = -(K[i][1] - g[i][1]);
@@ -245,18 +259,20 @@ static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, 
         for (int i = 0; i < s; i++) K[i][0] += d[2 * i], K[i][1] += d[2 * i + 1];
         const int stalled = it > 0 && nd <= GL_FLOOR && nd > 0.5 * nprev;
         if (nd <= GL_TOL || stalled) {
-            double de = 0.0, dP = 0.0, dphi = 0.0;
+            double de = 0.0, dP = 0.0, dphi = 0.0, dt = 0.0;
             for (int i = 0; i < s; i++) {
                 de += T->b[i] * K[i][0];
                 dP += T->b[i] * K[i][1];
-                dphi += T->b[i] * pd[i];
+                dphi += T->b[i] * pd[i][0];
+                dt += T->b[i] * pd[i][1];
             }
             L->z[0] = remainder(L->z[0] + h * dphi, 2.0 * GCP_PI);
+            L->t += h * dt;
             L->z[1] += h * de;
             L->z[3] += h * dP;
+            memcpy(L->K2, L->K, sizeof K);
             memcpy(L->K, K, sizeof K);
-            memcpy(L->phidot, pd, sizeof pd);
-            L->have_K = 1;
+            L->have_K = L->have_K ? 2 : 1;
             return 0;
         }
         nprev = nd;
@@ -264,7 +280,7 @@ static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, 
     return GCP_STEP_FAILED;
 }
 
-static int gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t, void *vlane)
+int gcp_gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t, void *vlane)
 {
     const struct gl_ctx *C = vctx;
     struct gl_lane *L = vlane;
@@ -305,7 +321,7 @@ static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, do
     struct gl_lane *L = vlane;
     const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
     const struct gl_lane save = *L;
-    int r = gl_step_canon(C, &k, L, h);
+    int r = gcp_gl_step_canon(C, &k, L, h);
     double X[3], ppar;
     if (!r) r = C->chart.from_canon(&C->chart, &k, L->z, L->aux[0], X, &ppar);
     if (r) {
@@ -319,14 +335,14 @@ static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, do
     return 0;
 }
 
-static const struct gcp_gc_lane_ops gl_ops = {sizeof(struct gl_lane), gl_init, gl_step};
+static const struct gcp_gc_lane_ops gl_ops = {sizeof(struct gl_lane), gcp_gl_init, gl_step};
 
 static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                          const struct gcp_sampler *s, const struct gl_tableau *tab)
 {
     (void)p;
-    struct gl_ctx C = {tab, {0}};
+    struct gl_ctx C = {tab, {0}, 0.0};
     char why[256];
     if (gcp_canon_chart_create(f, &C.chart, why, sizeof why)) {
         /* the scene refuses such runs before they start (gcp_pusher_type.applies);
@@ -345,18 +361,18 @@ static size_t gl2_advance(struct gcp_block *b, const struct gcp_field *f,
                           const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                           const struct gcp_sampler *s)
 {
-    return gl_advance(b, f, p, o, s, &gl2);
+    return gl_advance(b, f, p, o, s, &gcp_gl2_tableau);
 }
 
 static size_t gl4_advance(struct gcp_block *b, const struct gcp_field *f,
                           const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                           const struct gcp_sampler *s)
 {
-    return gl_advance(b, f, p, o, s, &gl4);
+    return gl_advance(b, f, p, o, s, &gcp_gl4_tableau);
 }
 
 /* A method needing a canonical chart applies where one exists. */
-static int gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen)
+int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen)
 {
     struct gcp_canon_chart c;
     if (gcp_canon_chart_create(f, &c, why, whylen)) return GCP_ERR_STATE;
@@ -371,7 +387,7 @@ const struct gcp_pusher_type gcp_pusher_gc_gl2 = {
     .order = 2,
     .kind = GCP_GUIDING_CENTRE,
     .advance = gl2_advance,
-    .applies = gc_canon_applies,
+    .applies = gcp_gc_canon_applies,
 };
 
 const struct gcp_pusher_type gcp_pusher_gc_gl4 = {
@@ -381,5 +397,5 @@ const struct gcp_pusher_type gcp_pusher_gc_gl4 = {
     .order = 4,
     .kind = GCP_GUIDING_CENTRE,
     .advance = gl4_advance,
-    .applies = gc_canon_applies,
+    .applies = gcp_gc_canon_applies,
 };

@@ -1,5 +1,5 @@
 /* Vector potentials A (and the electrostatic potential phi) of the built-in
- * analytic fields, for gc-vi's phase-space Lagrangian and for p_phi.
+ * analytic fields, for gc-midpoint-pphi's phase-space Lagrangian and for p_phi.
  *
  * Temporary home: these belong in the field files as an optional
  *   int (*potential)(const struct gcp_field *, double t, const double x[3],
@@ -150,7 +150,7 @@ int gcp_gc_potential(const struct gcp_field *f, double t, const double x[3], dou
         /* gridded axisymmetric fields with a flux (grid with psi, eqdsk): the
          * toroidal component A_phi = psi / R, which is all that p_phi and the
          * drift-shell flux need.  The poloidal components (from B_phi) are not
-         * known here, so no dA: gc-vi, which needs the whole A, refuses. */
+         * known here, so no dA: gc-midpoint-pphi, which needs the whole A, refuses. */
         const double Aphi = psi / R;
         A[0] = -Aphi * x[1] / R, A[1] = Aphi * x[0] / R, A[2] = 0.0;
         if (phi) *phi = 0.0;

@@ -4,7 +4,7 @@
  *   k1 = F(t, y), k2 = F(t + h/2, y + h k1/2), k3 = F(t + h/2, y + h k2/2),
  *   k4 = F(t + h, y + h k3),   y += h (k1 + 2 k2 + 2 k3 + k4)/6,
  * y = (X, p_par), mu constant.  Global error O(h^4).  Not symplectic: the
- * energy and p_phi drift secularly (O(t h^4)), which gc-vi avoids.
+ * energy and p_phi drift secularly (O(t h^4)), which gc-gl2/gc-gl4 (symplectic) avoid.
  *
  * The adiabaticity check (opts->adiabaticity_max) and B*_par > 0 are tested
  * on k1, i.e. at the start of every step: a lane that fails retires with

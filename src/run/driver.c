@@ -102,7 +102,7 @@ static void multi_sample(const struct gcp_block *b, double t, void *vctx)
 }
 
 /* Steps per slice of a chunk's push (see gcp_schedule.stop): ~2 ms of a
- * full-orbit chunk, ~1 s of a gc-vi one. */
+ * full-orbit chunk, ~1 s of a gc-gl4 one. */
 #define GCP_SLICE 8192
 
 int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,

@@ -23,6 +23,8 @@
  *   particle-step of gcp_push_boris_batch + gcp_drift_batch against the
  *   hand-written fused kick + drift loop (goal <= 1.1x).
  *
+ * Part 3 (issue 11): guiding-centre methods, cost per step against gc-rk4.
+ *
  * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests) */
 #include <math.h>
 #include <stdint.h>
@@ -32,6 +34,7 @@
 #include <time.h>
 
 #include "gcpush/field.h"
+#include "gcpush/gc.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
@@ -405,6 +408,66 @@ static double lib_stream(size_t n)
     return best;
 }
 
+/* Part 3 (issue 11): guiding-centre methods, cost per particle-step in the
+ * dipole against gc-rk4: a block of 64 protons, 1-10 MeV, L = 3.5 .. 4.5,
+ * equatorial pitch 30 .. 85 deg, dt = 1/25 of the shortest bounce period
+ * (~0.09 s: the coarse end of what the symplectic methods are run at), 250
+ * steps per repetition (10 bounces: the per-advance set-up counts once). */
+static void part_gc(void)
+{
+    const struct gcp_pusher_type *ps[] = {&gcp_pusher_gc_rk4, &gcp_pusher_gc_gl2,
+                                          &gcp_pusher_gc_gl4, &gcp_pusher_gc_midpoint_pphi,
+                                          &gcp_pusher_gc_gl4_sundman};
+    const char *goal[] = {"", "(<= 3)", "(<= 6)", "", ""};
+    struct gcp_field *f = gcp_field_dipole_create(GCP_EARTH_B0, 0, 0.0, 0.0);
+    const size_t n = 64;
+    const int64_t steps = 250; /* ~0.5 s a method: not scaled */
+    struct gcp_block b;
+    if (gcp_block_alloc(&b, n)) return;
+    double X0[64][3], pp0[64], mu0[64];
+    rng = 0x243F6A8885A308D3ull;
+    for (size_t i = 0; i < n; i++) {
+        const double T = 1e6 * QP * pow(10.0, urand()), L = 3.5 + urand();
+        const double a = (30.0 + 55.0 * urand()) * GCP_PI / 180.0, lon = 2.0 * GCP_PI * urand();
+        const double g = 1.0 + T / (MP * GCP_C_LIGHT * GCP_C_LIGHT);
+        const double p = MP * GCP_C_LIGHT * sqrt(g * g - 1.0);
+        X0[i][0] = L * RE * cos(lon), X0[i][1] = L * RE * sin(lon), X0[i][2] = 0.0;
+        pp0[i] = p * cos(a);
+        mu0[i] = p * sin(a) * p * sin(a) / (2.0 * MP * GCP_EARTH_B0 / (L * L * L));
+    }
+    /* 10 MeV at L = 3.5, 30 deg: T_b ~ 2.1 s; 1/25 of it */
+    const struct gcp_push_opts o = {0.0, 2.1 / 25.0, steps, 0.0, 0.0};
+    printf("Issue 11: guiding-centre methods in the dipole, block of %zu protons, dt = T_b/25\n", n);
+    printf("  %-18s %14s %10s %8s\n", "method", "[us/step]", "x gc-rk4", "goal");
+    double t_rk4 = NAN;
+    for (size_t k = 0; k < sizeof ps / sizeof ps[0]; k++) {
+        double best = INFINITY;
+        size_t alive = 0;
+        int64_t taken = 0; /* steps taken (the Sundman method's differ from `steps`) */
+        for (int rep = 0; rep < REPS; rep++) {
+            for (size_t i = 0; i < n; i++) {
+                b.x[i] = X0[i][0], b.y[i] = X0[i][1], b.z[i] = X0[i][2];
+                b.ppar[i] = pp0[i], b.mu[i] = mu0[i], b.status[i] = 0, b.steps[i] = 0;
+                b.index[i] = i;
+            }
+            b.n_active = n;
+            b.q = QP, b.m = MP;
+            const double t0 = now();
+            alive = ps[k]->advance(&b, f, ps[k], &o, NULL);
+            best = fmin(best, now() - t0);
+            taken = 0;
+            for (size_t i = 0; i < n; i++) taken += b.steps[i];
+        }
+        const double us = 1e6 * best / (double)taken;
+        if (k == 0) t_rk4 = us;
+        printf("  %-18s %14.3f %10.2f %8s%s\n", ps[k]->name, us, us / t_rk4, goal[k],
+               alive == n ? "" : "  (some lanes stopped)");
+    }
+    printf("\n");
+    gcp_block_free(&b);
+    gcp_field_free(f);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1) scale = atof(argv[1]);
@@ -527,7 +590,9 @@ int main(int argc, char **argv)
                1e9 * th / (double)rblocks[k], tk / th);
         soa_free(&r);
     }
-    printf("\nCUDA: kernels.h compiles under nvcc (tests/cli/test_kernels_compile.sh); no GPU here,\n"
+    printf("\n");
+    part_gc();
+    printf("CUDA: kernels.h compiles under nvcc (tests/cli/test_kernels_compile.sh); no GPU here,\n"
            "so no device particle-steps/s.\n");
     return 0;
 }

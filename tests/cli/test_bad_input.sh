@@ -3,6 +3,7 @@
 # non-zero exit status, and leaves no output file behind.
 set -u
 . "$(dirname "$0")/lib.sh"
+DATA=$(cd "$(dirname "$0")/../../fields/data" && pwd)
 cd "$TMP"
 
 good() {
@@ -84,6 +85,22 @@ expect corrupt-eqdsk "case.run:8: \[field\] file: corrupt.h5:1: expected 48 char
 "$GCPUSH" missing.run > /dev/null 2> stderr.txt && die "missing file: exit 0"
 grep -q "missing.run: cannot open" stderr.txt || die "missing file: $(cat stderr.txt)"
 "$GCPUSH" --frobnicate > /dev/null 2>&1 && die "unknown option: exit 0"
+
+# symplectic guiding-centre methods need a canonical chart (issue 11): refused
+# before the run, at --check time too, naming file:line, [integrator] method
+# and why, exit status 2 (never a run in which every particle fails)
+gc() { good | sed "s/^method = boris/method = $1/; s/^dt     = 0.1 gyro/dt     = 1 ms/"; }
+igrf() { sed "s|^field    = uniform|field    = igrf|; s|^B = .*|file = $DATA/igrf14coeffs.txt\nepoch = 2020|; s|^position .*|position = 4 0 0 RE|"; }
+gc gc-gl4 | igrf > case.run
+expect gl4-in-igrf "case.run:19: \[integrator\] method: method 'gc-gl4' cannot run in the igrf field: curl-free chart: the field is not axisymmetric"
+rc=0; "$GCPUSH" --check case.run > /dev/null 2>&1 || rc=$?
+[ "$rc" = 2 ] || die "gl4-in-igrf --check: exit status $rc, want 2"
+gc gc-gl2 | sed 's/^field    = uniform/field    = grid/; s|^B = .*|file = '"$DATA"'/dipole.h5|; s|^position .*|position = 4 0 0 RE|' > case.run
+expect gl2-in-grid "\[integrator\] method: method 'gc-gl2' cannot run in the grid field"
+gc gc-midpoint-pphi | igrf > case.run
+expect midpoint-in-igrf "method 'gc-midpoint-pphi' cannot run in the igrf field: the field model has no analytic vector potential"
+gc gc-vi > case.run
+expect gc-vi-renamed "case.run:18: \[integrator\] method: gc-vi is gone: it was not a variational integrator; use gc-gl2 or gc-gl4"
 
 # --check validates without writing anything
 good > case.run

@@ -54,9 +54,9 @@ for n in 1 2 3; do
 done
 same r1.h5 r2.h5
 same r1.h5 r3.h5
-# guiding centres (X, p_par, mu columns; gc-vi) the same on 1 and 3 ranks
+# guiding centres (X, p_par, mu columns; gc-gl4) the same on 1 and 3 ranks
 for n in 1 3; do
-    sed "s/OUT/g$n.h5/; s/^method   = boris/method   = gc-vi/; s/^dt       = 0.1 gyro/dt       = 0.02 bounce/; s/^duration = 0.2 s/duration = 5 s/" ens.run > g$n.run
+    sed "s/OUT/g$n.h5/; s/^method   = boris/method   = gc-gl4/; s/^dt       = 0.1 gyro/dt       = 0.02 bounce/; s/^duration = 0.2 s/duration = 5 s/" ens.run > g$n.run
     $MPIRUN -np $n "$GCPUSH" --quiet g$n.run || die "guiding-centre run on $n ranks failed"
 done
 same g1.h5 g3.h5

@@ -55,12 +55,12 @@ assert (s[a > lc + 1] == 0).all() and (s[a < lc - 1] == 2).all(), list(zip(a.rou
 print("mirror: %d trapped, %d lost, loss cone %.2f deg" % ((s == 0).sum(), (s == 2).sum(), lc))
 PYEOF
 
-# dipole.run, shortened to 20 s: guiding centres with gc-vi.  Its energy
-# error is bounded and O(dt^2), oscillating within the bounce: at 100 steps
-# per (shortest) bounce, (omega_b dt)^2 / 12 = (2 pi / 100)^2 / 12 = 3.3e-4
-# (measured 1.4e-4), so 1e-3 holds with margin and fails on a secular drift
-# or a wrong step; mu is a constant of the scheme (exact); statuses only from
-# the belt mix.
+# dipole.run, shortened to 20 s: guiding centres with gc-gl4 (symplectic).
+# Its energy error is bounded and O(dt^4), oscillating within the bounce: at
+# 25 steps per bounce its range is 1e-4 (test_gc_symplectic.c), so at the
+# run's 50 steps per (shortest) bounce ~1e-4/16 = 6e-6; 1e-3 holds with
+# margin and fails on a secular drift or a wrong step; mu is a constant of
+# the scheme (exact); statuses only from the belt mix (no STEP_FAILED).
 sed "s|^file .*|file = dipole.h5|; s|^duration .*|duration = 20 s|; s|^trajectory .*|trajectory = none|" "$RUNS/dipole.run" > d.run
 "$GCPUSH" --quiet d.run || die "dipole.run failed"
 "$PY" - dipole.h5 <<'PYEOF' || die "dipole.run: guiding-centre energy"
@@ -80,7 +80,7 @@ err = np.abs(g1 - g0)[alive] / (g0 - 1)[alive]
 assert set(s) <= {0, 1, 4}, set(s)
 assert (f["particles/final/mu"][:][alive] == f["particles/initial/mu"][:][alive]).all()
 assert err.max() < 1e-3, err.max()
-print("dipole (gc-vi): max relative kinetic energy error %.2e over %d live guiding centres"
+print("dipole (gc-gl4): max relative kinetic energy error %.2e over %d live guiding centres"
       % (err.max(), alive.sum()))
 PYEOF
 echo "ok test_runs"

@@ -45,11 +45,11 @@ grep -q "^boris .*order 2" wp.txt || die "no fitted order: $(tail -6 wp.txt)"
 if "$PY" "$ROOT/analysis/work_precision.py" nothere.h5 > /dev/null 2> e.txt; then die "missing file accepted"; fi
 [ "$(wc -l < e.txt)" = 1 ] && grep -q "work_precision: error: nothere.h5: no such file" e.txt || die "$(cat e.txt)"
 
-# the invariant columns: runs/sweep-dipole-gc.run cut down to 2 protons, gc-vi
+# the invariant columns: runs/sweep-dipole-gc.run cut down to 2 protons, gc-gl2
 # and gc-rk4 at 3 steps, for 2.3 drift periods (of the first proton; about
 # 190 s, some 100 bounces), so that every particle has >= 2 drift events
 sed 's/^file = .*/file = inv.h5/; s/^duration = .*/duration = 2.3 drift/; s/^count   = 4/count   = 2/;
-     s/^methods   = .*/methods   = gc-vi gc-rk4/; s/^dt        = .*/dt        = 0.5 0.25 0.125 gyro/;
+     s/^methods   = .*/methods   = gc-gl2 gc-rk4/; s/^dt        = .*/dt        = 0.5 0.25 0.125 gyro/;
      /^tolerance/d' "$ROOT/runs/sweep-dipole-gc.run" > inv.run
 "$GCPUSH" inv.run > inv.txt 2> inv.err || die "invariant sweep failed: $(tail -2 inv.err)"
 "$PY" - <<'PY' || die "invariant columns"
@@ -58,10 +58,10 @@ g = h5py.File("inv.h5", "r")["sweep"]
 D = g.attrs["duration"]
 m = np.array([x.decode() for x in g["method"][()]])
 col = lambda c, meth: g[c][()][m == meth]
-vi = lambda c: col(c, "gc-vi")
+vi = lambda c: col(c, "gc-gl2")
 for c in ("mu_drift", "K_drift", "Lstar_drift", "bounce_phase_error", "drift_phase_error"):
     assert np.all(np.isfinite(g[c][()])), (c, g[c][()])
-# gc-vi carries mu as a constant: the per-bounce mu changes by round-off only
+# gc-gl2 carries mu as a constant: the per-bounce mu changes by round-off only
 assert np.all(vi("mu_drift") * D < 1e-12), vi("mu_drift") * D
 # K: second order, and symplectic (no secular growth): the relative change
 # over the run is small (measured 2e-7 at 0.5 gyro, ~1/30 of a bounce) and
@@ -70,11 +70,12 @@ assert np.all(vi("mu_drift") * D < 1e-12), vi("mu_drift") * D
 K = vi("K_drift")
 assert np.all(K * D < 1e-6), K * D
 assert np.all(K[1:] < K[:-1] / 2.5), K
-# gc-vi conserves p_phi in the axisymmetric dipole: L* is steady to round-off
+# gc-gl2 conserves p_phi in the axisymmetric dipole (discrete Noether, exact
+# by construction): L* is steady to round-off
 assert np.all(vi("Lstar_drift") * D < 1e-10), vi("Lstar_drift") * D
-# bounce and drift phase errors fall as dt^2 (gc-vi is second order).  The
+# bounce and drift phase errors fall as dt^2 (gc-gl2 is second order).  The
 # floor (reference error + mirror-point interpolation, O(dt^2) of the run
-# itself) is below 2e-4 rad (gc-rk4 at 0.25 gyro), < 0.2 % of gc-vi's
+# itself) is below 2e-4 rad (gc-rk4 at 0.25 gyro), < 0.2 % of gc-gl2's
 # smallest bounce phase error, and the next term is O((dt/T_b)^2) ~ 1e-3
 # relative: the observed order is 2 within ~0.01; allow 1.8 .. 2.2
 for c in ("bounce_phase_error", "drift_phase_error"):

@@ -340,7 +340,8 @@ Test(gc_basic, battery_step_failed_state_restored)
         cr_assert_eq(gcp_block_alloc(&b, 1), 0);
         b.q = GCP_E_CHARGE, b.m = GCP_M_PROTON;
         fill_lane(&b, 0, X, ppar, mu);
-        const int vi = gc_is(p, "gc-midpoint-pphi") || gc_is(p, "gc-gl2") || gc_is(p, "gc-gl4");
+        const int vi = gc_is(p, "gc-midpoint-pphi") || gc_is(p, "gc-gl2") || gc_is(p, "gc-gl4") ||
+                       gc_is(p, "gc-gl2-sundman") || gc_is(p, "gc-gl4-sundman");
         const struct gcp_push_opts o = {0.0, vi ? 50 * Tb : Tb / 100, vi ? 1 : 100,
                                         vi ? 0.0 : 1e-30, 0.0};
         p->advance(&b, f, p, &o, NULL);

@@ -14,6 +14,7 @@
 #include <criterion/criterion.h>
 
 #include "pushers/canon_priv.h"
+#include "pushers/gc_gauss_priv.h"
 #include "test_gc_util.h"
 
 /* ---- set-ups ---- */
@@ -322,4 +323,200 @@ Test(gc_symplectic, long_run_energy_bounded_pphi_exact, .timeout = 300)
         cr_expect(maxP > 1e-12, "%s gc-rk4: P_phi %.2e", S[c].name, maxP);
         sys_free(&S[c]);
     }
+}
+
+/* ---- symplectic adaptive steps (Sundman transformation) ---- */
+
+/* One lane of the Gauss-Legendre core in extended phase space, at (X, p_par). */
+static void sd_lane(const struct sys *S, struct gl_ctx *C, struct gl_lane *L,
+                    const struct gl_tableau *tab, const double X[3], double ppar)
+{
+    memset(C, 0, sizeof *C);
+    C->tab = tab;
+    C->sundman_a = 0.25;
+    char why[256];
+    cr_assert_eq(gcp_canon_chart_create(S->f, &C->chart, why, sizeof why), 0, "%s", why);
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, 1), 0);
+    b.q = S->k.q, b.m = S->k.m, b.mu[0] = S->k.mu;
+    b.x[0] = X[0], b.y[0] = X[1], b.z[0] = X[2], b.ppar[0] = ppar;
+    cr_assert_eq(gcp_gl_init(C, &b, 0, 0.0, L), 0);
+    gcp_block_free(&b);
+    double H, dH[4], Bm, dB[4];
+    cr_assert_eq(C->chart.hamiltonian(&C->chart, &S->k, L->z, L->aux[0], &H, dH), 0);
+    cr_assert_eq(C->chart.field_strength(&C->chart, &S->k, L->z, L->aux[0], &Bm, dB), 0);
+    L->t = 0.0, L->pt = -H, L->Bref = Bm;
+}
+
+/* The extended state (phi, chi, t, P_phi, P_chi, p_t) of a lane. */
+static void sd_get(const struct gl_lane *L, double y[6])
+{
+    y[0] = L->z[0], y[1] = L->z[1], y[2] = L->t, y[3] = L->z[2], y[4] = L->z[3], y[5] = L->pt;
+}
+static void sd_set(struct gl_lane *L, const double y[6])
+{
+    L->z[0] = y[0], L->z[1] = y[1], L->t = y[2], L->z[2] = y[3], L->z[3] = y[4], L->pt = y[5];
+}
+
+/* The one-s-step map of gc-gl2/gl4-sundman in the extended phase space:
+ * |M^T J M - J| (6 x 6, pairs (phi, P_phi), (chi, P_chi), (t, p_t)) by
+ * central differences as sympl_residual above (same floor, ~1e-10;
+ * 1e-8 asserted), for ds = T_b/25 .. T_b/200, in the dipole electron that
+ * mirrors at 63 deg latitude (the adaptive methods' use case), started a
+ * tenth of a bounce from the equator.  Against it, the naive adaptive step
+ * that the transformation replaces: a plain Gauss-Legendre step in t of
+ * size h = w(z0) ds, chosen from the state (t += h, p_t kept): each step is
+ * symplectic in (phi, chi, P_phi, P_chi), but h depends on z0, so the map
+ * is not -- its residual must be far above the floor (> 1e-6, 100x the
+ * bound) at every ds: the test can fail. */
+static double sd_residual(const struct sys *S, const struct gl_ctx *C, const struct gl_lane *L0,
+                          double ds, const double sc[6], int naive)
+{
+    struct gl_ctx plain = *C;
+    plain.sundman_a = 0.0;
+    double M[6][6], y0[6];
+    sd_get(L0, y0);
+    for (int j = 0; j < 6; j++) {
+        double y1p[6], y1m[6];
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            struct gl_lane L = *L0;
+            double y[6];
+            memcpy(y, y0, sizeof y);
+            y[j] += sgn * 1e-5 * sc[j];
+            sd_set(&L, y);
+            double h = ds;
+            if (naive) {
+                double Bm, dB[4], aux[2] = {L.aux[0][0], L.aux[0][1]};
+                if (C->chart.field_strength(&C->chart, &S->k, L.z, aux, &Bm, dB)) return NAN;
+                h = ds * pow(L.Bref / Bm, C->sundman_a);
+            }
+            if (gcp_gl_step_canon(naive ? &plain : C, &S->k, &L, h)) return NAN;
+            sd_get(&L, sgn > 0 ? y1p : y1m);
+        }
+        for (int i = 0; i < 6; i++) M[i][j] = (y1p[i] - y1m[i]) / (2e-5 * sc[j]);
+    }
+    /* pairs (0, 3), (1, 4), (2, 5) */
+    double res = 0.0;
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < 6; j++) {
+            double r = (j == i + 3) ? -1.0 : (i == j + 3) ? 1.0 : 0.0;
+            for (int a = 0; a < 3; a++)
+                r += M[a][i] * M[a + 3][j] - M[a + 3][i] * M[a][j];
+            const double ai = sc[i % 3] * sc[i % 3 + 3], aj = sc[j % 3] * sc[j % 3 + 3];
+            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(ai * aj));
+        }
+    return res;
+}
+
+Test(gc_symplectic, sundman_extended_map_is_symplectic, .timeout = 120)
+{
+    struct sys S;
+    sys_dipole(&S, "dipole e- 1 MeV 4 deg", -GCP_E_CHARGE, GCP_M_ELECTRON, 1e6 * GCP_E_CHARGE,
+               4.0 * GCP_PI / 180.0);
+    double X[3] = {S.X[0], S.X[1], S.X[2]}, pp = S.ppar, t = 0.0;
+    const struct gcp_push_opts o = {0.0, S.Tb / 1000, 100, 0.0, 0.0};
+    cr_assert_eq(gcp_gc_push(S.f, &gcp_pusher_gc_rk8pd, S.k.q, S.k.m, &o, &t, X, &pp, S.k.mu, NULL,
+                             NULL), 0);
+    const struct gl_tableau *tabs[] = {&gcp_gl2_tableau, &gcp_gl4_tableau};
+    for (int k = 0; k < 2; k++) {
+        struct gl_ctx C;
+        struct gl_lane L;
+        sd_lane(&S, &C, &L, tabs[k], X, pp);
+        const double r = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]), Bm = gc_Bmag(S.f, X);
+        const double ptot = sqrt(pp * pp + 2.0 * S.k.m * S.k.mu * Bm);
+        const double Ek = -L.pt - S.k.m * GC_C * GC_C;
+        const double sc[6] = {1.0, Bm * r, S.Tb, fabs(L.z[2]), ptot / Bm, Ek};
+        for (int N = 25; N <= 200; N *= 2) {
+            const double res = sd_residual(&S, &C, &L, S.Tb / N, sc, 0);
+            const double naive = sd_residual(&S, &C, &L, S.Tb / N, sc, 1);
+            cr_log_info("%s ds = T_b/%d: extended residual sundman %.2e, naive step from the "
+                        "state %.2e", tabs[k]->s == 1 ? "gl2" : "gl4", N, res, naive);
+            cr_expect(res < 1e-8, "s %d N %d: residual %.2e", tabs[k]->s, N, res);
+            cr_expect(naive > 1e-6, "s %d N %d: naive residual %.2e: test cannot fail",
+                      tabs[k]->s, N, naive);
+        }
+        gcp_canon_chart_destroy(&C.chart);
+    }
+    sys_free(&S);
+}
+
+/* Drift phase after 3 bounces (t = 3 T_b) of the 63-deg electron, against
+ * gc-rk8pd at tolerance 1e-13 (its error ~1e-12 rad, far below the ~1e-7
+ * compared): the steps gc-gl4-sundman takes at ds = T_b/20, and the fewest
+ * steps a fixed gc-gl4 step needs to run at all (coarser fixed steps fail
+ * their Newton solve at the mirror point: STEP_FAILED) and reach the same
+ * phase error, scanning N = 40 .. 400 steps per bounce by 5%, at ds =
+ * T_b/18, T_b/24, T_b/32.  Measured 2.14x, 1.85x and 1.87x fewer steps
+ * (deterministic: no random input); asserted >= 1.5x.  The issue asks 3x:
+ * not reached with w = |B|^-1/4 (see gc_sundman.c).  Then the energy over 1e5 s-steps (~2000 bounces) of the
+ * same electron: the fitted trend of the kinetic-energy error below 1e-3
+ * of its range (as the fixed-step long run above). */
+static int sd_push(const struct sys *S, const struct gcp_pusher_type *p, double dt, int64_t n,
+                   double tol, double out[3], int64_t *steps)
+{
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, 1), 0);
+    b.q = S->k.q, b.m = S->k.m, b.mu[0] = S->k.mu;
+    b.x[0] = S->X[0], b.y[0] = S->X[1], b.z[0] = S->X[2], b.ppar[0] = S->ppar;
+    const struct gcp_push_opts o = {0.0, dt, n, tol, 0.0};
+    p->advance(&b, S->f, p, &o, NULL);
+    const int st = b.status[0];
+    out[0] = b.x[0], out[1] = b.y[0], out[2] = b.z[0];
+    *steps = b.steps[0];
+    gcp_block_free(&b);
+    return st;
+}
+
+Test(gc_symplectic, sundman_fewer_steps_energy_bounded, .timeout = 120)
+{
+    struct sys S;
+    sys_dipole(&S, "dipole e- 1 MeV 4 deg", -GCP_E_CHARGE, GCP_M_ELECTRON, 1e6 * GCP_E_CHARGE,
+               4.0 * GCP_PI / 180.0);
+    const double T = 3.0 * S.Tb;
+    double ref[3], out[3];
+    int64_t steps;
+    cr_assert_eq(sd_push(&S, &gcp_pusher_gc_rk8pd, T, 1, 1e-13, ref, &steps), 0);
+    const double phi_ref = atan2(ref[1], ref[0]);
+    double worst = INFINITY;
+    for (int D = 18; D <= 32; D = D * 4 / 3) {
+        cr_assert_eq(sd_push(&S, &gcp_pusher_gc_gl4_sundman, S.Tb / D, 3 * D, 0.0, out, &steps), 0);
+        const double e_sd = fabs(remainder(atan2(out[1], out[0]) - phi_ref, 2 * GCP_PI));
+        const int64_t n_sd = steps;
+        int64_t n_fix = -1;
+        double e_fix = NAN;
+        for (double N = 40; N <= 400 && n_fix < 0; N *= 1.05) {
+            const int64_t n = (int64_t)(3.0 * N);
+            if (sd_push(&S, &gcp_pusher_gc_gl4, T / n, n, 0.0, out, &steps)) continue;
+            const double e = fabs(remainder(atan2(out[1], out[0]) - phi_ref, 2 * GCP_PI));
+            if (e <= e_sd) n_fix = n, e_fix = e;
+        }
+        cr_log_info("63-deg electron, 3 bounces: gc-gl4-sundman ds = T_b/%d: %lld steps (drift "
+                    "phase error %.2e), best fixed gc-gl4 %lld steps (%.2e): %.2fx", D,
+                    (long long)n_sd, e_sd, (long long)n_fix, e_fix, (double)n_fix / (double)n_sd);
+        cr_expect(n_fix > 0, "no fixed step reached %.2e", e_sd);
+        worst = fmin(worst, (double)n_fix / (double)n_sd);
+    }
+    cr_expect(worst >= 1.5, "sundman saves only %.2fx steps", worst);
+
+    /* energy over 1e5 s-steps, stepping the lane directly (the pusher lands on
+     * output times; here nothing lands) */
+    struct gl_ctx C;
+    struct gl_lane L;
+    sd_lane(&S, &C, &L, &gcp_gl4_tableau, S.X, S.ppar);
+    const double mc2 = S.k.m * GC_C * GC_C, E0 = -L.pt - mc2;
+    double n = 0, st = 0, se = 0, stt = 0, ste = 0, emin = INFINITY, emax = -INFINITY;
+    for (int64_t k = 0; k < 100000; k++) {
+        cr_assert_eq(gcp_gl_step_canon(&C, &S.k, &L, S.Tb / 20), 0, "step %lld", (long long)k);
+        double H, dH[4];
+        cr_assert_eq(C.chart.hamiltonian(&C.chart, &S.k, L.z, L.aux[0], &H, dH), 0);
+        const double e = (H - mc2) / E0 - 1.0, t = L.t;
+        n += 1, st += t, se += e, stt += t * t, ste += t * e;
+        emin = fmin(emin, e), emax = fmax(emax, e);
+    }
+    const double trend = fabs((n * ste - st * se) / (n * stt - st * st)) * L.t;
+    cr_log_info("gc-gl4-sundman 1e5 s-steps (%.0f bounces): energy range %.2e, trend %.2e "
+                "(%.1e of range)", L.t / S.Tb, emax - emin, trend, trend / (emax - emin));
+    cr_expect(trend < 1e-3 * (emax - emin), "trend %.2e range %.2e", trend, emax - emin);
+    gcp_canon_chart_destroy(&C.chart);
+    sys_free(&S);
 }

@@ -1,0 +1,50 @@
+/* Private to gc_gauss.c and gc_sundman.c: the Gauss-Legendre collocation
+ * core of the symplectic guiding-centre methods (issue 11). */
+#ifndef GCPUSH_GC_GAUSS_PRIV_H
+#define GCPUSH_GC_GAUSS_PRIV_H
+
+#include <stddef.h>
+
+#include "gcpush/pusher.h"
+#include "canon_priv.h"
+
+#define GL_SMAX 2
+
+struct gl_tableau {
+    int s;                                              /* stages */
+    double a[GL_SMAX][GL_SMAX], b[GL_SMAX], c[GL_SMAX]; /* Butcher tableau */
+};
+extern const struct gl_tableau gcp_gl2_tableau, gcp_gl4_tableau;
+
+struct gl_ctx {
+    const struct gl_tableau *tab;
+    struct gcp_canon_chart chart;
+    double sundman_a; /* [1] exponent of w = (B_ref/|B|)^a; 0: plain time steps */
+};
+
+struct gl_lane {
+    double z[4];                /* canonical state */
+    double aux[GL_SMAX + 1][2]; /* chart guesses: [0] the state, [1 + i] stage i */
+    double K[GL_SMAX][2];       /* last step's stage slopes (d eta, d P_eta) */
+    double K2[GL_SMAX][2];      /* the step's before */
+    double J[16];               /* LU of the stage Jacobian (2s x 2s) */
+    int piv[4];
+    int have_K, have_J;
+    double sc[2];               /* [eta unit, P_eta unit] scales of eta and P_eta */
+    double hJ;                  /* step of the kept Jacobian */
+    double t;                   /* [s] physical time (advanced by the step) */
+    double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */
+    double Bref;                /* [T] |B| at the start (Sundman: w = 1 there) */
+};
+
+/* Lane set-up from block lane i (canonical state, Newton scales); t, pt,
+ * Bref are the caller's.  0 or a status (gcp_gc_lane_ops.init). */
+int gcp_gl_init(const void *ctx, const struct gcp_block *b, size_t i, double t, void *lane);
+/* One step of size h (time, or s with the Sundman transformation) of lane
+ * L: 0, or GCP_STEP_FAILED with L unchanged. */
+int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                      double h);
+/* gcp_pusher_type.applies of the methods that need a canonical chart. */
+int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
+
+#endif

@@ -1,0 +1,245 @@
+/* gc-gl2-sundman, gc-gl4-sundman: symplectic guiding-centre integrators
+ * with adaptive time steps (issue 11): the Gauss-Legendre methods of
+ * gc_gauss.c applied with a fixed step in a fictitious time s to the
+ * Sundman/Poincare-transformed Hamiltonian in extended phase space
+ * (Hairer, Lubich & Wanner, Geometric Numerical Integration, sec. VIII.2;
+ * Hairer 1997, Appl. Numer. Math. 25 219):
+ *   z_ext = (phi, eta, t, P_phi, P_eta, p_t),   K = w(z) (H(z) + p_t),
+ *   dt/ds = w(z),   p_t = -H(z0) (K = 0 on the orbit),
+ * a canonical system in z_ext, so the map of one s-step is symplectic (in
+ * the extended space) whatever w, while the physical step dt = w ds
+ * follows w.  Here
+ *   w = (B_ref / |B|)^a,  a = 1/4,  B_ref = |B| at the particle's start,
+ * so dt = ds at the start and the step shrinks where |B| grows: guiding
+ * centres that mirror deep in a dipole (|B| 70x the equatorial value at 60
+ * deg latitude, the field changing over r/3 at speeds ~c) get smaller steps
+ * there.  `dt` of the run file is ds, i.e. the step at the start point.
+ * (Why |B|: the guiding-centre time scales -- the turn at the mirror point,
+ * the drift, the gyro-period that bounds the model's validity -- shorten
+ * where |B| grows, and |B| and its gradient are what a chart gives.  The
+ * exponent: measured on a 1 MeV electron at L = 4 mirroring at 63 deg, the
+ * steps for a given drift-phase accuracy against the best fixed step are
+ * 0.5x at a = 1/4 and 2.5x at a = 1/2; at 57 deg, 0.7x at a = 1/4 and 1/8,
+ * 14x at a = 1 -- w = 1/|B| spends its steps at the mirror points, where
+ * the orbit spends little time.  The issue's goal, 3x fewer steps, is not
+ * reached by this w.)
+ *
+ * Output times.  The lanes run on their own clocks; at each sampling time
+ * (and at the end, t0 + nsteps dt) a lane lands exactly: its last s-step
+ * before the target is replaced by one of size ds' found by secant iteration
+ * so that t(ds') = t_target to 4 ulp (then set to t_target).  That landing
+ * step is again a Gauss-Legendre step, but ds' depends on the state, so the
+ * map over a sampling interval is symplectic except for that one step: the
+ * energy stays bounded (K is conserved by each step), exact symplecticity
+ * holds between samples.  Sample sparsely.
+ *
+ * Statuses as gc-gl4's; the stepped lanes are checked after every s-step
+ * (domain, field, adiabaticity at the new point); `steps` counts s-steps.
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/error.h"
+#include "gcpush/gc.h"
+#include "gcpush/particles.h"
+#include "block_priv.h"
+#include "gc_gauss_priv.h"
+#include "gc_priv.h"
+
+#define SD_A 0.25
+#define SD_LAND_MAXIT 12
+
+struct sd_lane {
+    struct gl_lane L;
+    int64_t steps; /* s-steps taken in this advance */
+};
+
+/* The field's bounds at X (gcp_block_classify's geometry for one lane). */
+static int sd_domain(const struct gcp_field *f, const double X[3])
+{
+    const double r2 = X[0] * X[0] + X[1] * X[1] + X[2] * X[2];
+    if (r2 < f->r_inner * f->r_inner) return GCP_PRECIPITATED;
+    if (r2 > f->r_outer * f->r_outer || fabs(X[2]) > f->z_max) return GCP_LEFT_DOMAIN;
+    return 0;
+}
+
+/* After a step: X, p_par into block lane i, and the lane's status there. */
+static int sd_after(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                    struct gcp_block *b, size_t i, double amax)
+{
+    double X[3], ppar, dX[3], dp;
+    int st = C->chart.from_canon(&C->chart, k, L->z, L->aux[0], X, &ppar);
+    if (st) return st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
+    b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
+    b->ppar[i] = ppar;
+    st = gcp_gc_eval(C->chart.field, L->t, k->q, k->m, X, ppar, k->mu, amax, dX, &dp);
+    return st ? st : sd_domain(C->chart.field, X);
+}
+
+/* The last step before t_target: ds' with t(ds') = t_target, by secant
+ * iteration through (0, t0) (t(ds) is smooth and nearly linear). */
+static int sd_land(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                   double t_target, double ds)
+{
+    const struct gl_lane save = *L;
+    const double span = t_target - save.t;
+    double dsk = ds * 0.5; /* first guess: below the nominal step */
+    {
+        double Bm, dB[4], aux[2] = {L->aux[0][0], L->aux[0][1]};
+        if (C->chart.field_strength(&C->chart, k, L->z, aux, &Bm, dB) == 0)
+            dsk = span / pow(L->Bref / Bm, C->sundman_a);
+    }
+    for (int it = 0; it < SD_LAND_MAXIT; it++) {
+        *L = save;
+        if (gcp_gl_step_canon(C, k, L, dsk)) {
+            *L = save;
+            return GCP_STEP_FAILED;
+        }
+        const double got = L->t - save.t;
+        if (fabs(L->t - t_target) <= 4.0 * DBL_EPSILON * fabs(t_target) + DBL_MIN) {
+            L->t = t_target;
+            return 0;
+        }
+        if (!(got > 0.0)) break;
+        dsk *= span / got;
+    }
+    *L = save;
+    return GCP_STEP_FAILED;
+}
+
+static size_t sd_retire(struct gcp_block *b, struct sd_lane *S, size_t n)
+{
+    size_t i = 0;
+    while (i < n) {
+        if (b->status[i] != GCP_ALIVE) {
+            b->t[i] = S[i].L.t;
+            b->steps[i] += S[i].steps;
+            gcp_block_swap_lanes(b, i, n - 1);
+            const struct sd_lane tmp = S[i];
+            S[i] = S[n - 1];
+            S[n - 1] = tmp;
+            n--;
+        } else {
+            i++;
+        }
+    }
+    return n;
+}
+
+static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
+                         const struct gcp_push_opts *o, const struct gcp_sampler *s,
+                         const struct gl_tableau *tab)
+{
+    size_t n = gcp_gc_block_begin(b, f, o);
+    if (n == 0) return 0;
+    struct gl_ctx C = {tab, {0}, SD_A};
+    struct sd_lane *S = NULL;
+    if (gcp_canon_chart_create(f, &C.chart, NULL, 0) == 0 && C.chart.field_strength)
+        S = malloc(b->n * sizeof *S);
+    if (!S) {
+        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        b->n_active = gcp_block_retire(b, n, o->t0, 0);
+        gcp_canon_chart_destroy(&C.chart);
+        return b->n_active;
+    }
+    for (size_t i = 0; i < n; i++) {
+        struct gl_lane *L = &S[i].L;
+        S[i].steps = 0;
+        const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
+        int st = gcp_gl_init(&C, b, i, o->t0, L);
+        double H = NAN, dH[4], Bm = NAN, dB[4];
+        if (!st) st = C.chart.hamiltonian(&C.chart, &k, L->z, L->aux[0], &H, dH);
+        if (!st) st = C.chart.field_strength(&C.chart, &k, L->z, L->aux[0], &Bm, dB);
+        L->t = o->t0, L->pt = -H, L->Bref = Bm;
+        if (st) b->status[i] = st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
+    }
+    n = sd_retire(b, S, n);
+    const double ds = o->dt;
+    const int64_t every = s && s->fn && s->every > 0 ? s->every : (o->nsteps > 0 ? o->nsteps : 1);
+    for (int64_t j = every; n > 0 && j - every < o->nsteps; j += every) {
+        const int64_t jj = j < o->nsteps ? j : o->nsteps;
+        const double t_target = o->t0 + (double)jj * o->dt;
+        for (size_t i = 0; i < n; i++) {
+            struct gl_lane *L = &S[i].L;
+            const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
+            int st = 0;
+            while (!st && L->t < t_target) {
+                /* the next step's dt ~ w ds: land when it would reach the target */
+                double Bm, dB[4], aux[2] = {L->aux[0][0], L->aux[0][1]};
+                st = C.chart.field_strength(&C.chart, &k, L->z, aux, &Bm, dB);
+                if (st) break;
+                const double dt_next = ds * pow(L->Bref / Bm, C.sundman_a);
+                if (L->t + 1.5 * dt_next >= t_target)
+                    st = sd_land(&C, &k, L, t_target, ds);
+                else
+                    st = gcp_gl_step_canon(&C, &k, L, ds);
+                if (st) break;
+                S[i].steps++;
+                st = sd_after(&C, &k, L, b, i, o->adiabaticity_max);
+            }
+            if (st) b->status[i] = st;
+        }
+        n = sd_retire(b, S, n);
+        b->n_active = n;
+        if (s && s->fn && s->every > 0) s->fn(b, t_target, s->ctx);
+    }
+    for (size_t i = 0; i < n; i++) {
+        b->t[i] = S[i].L.t;
+        b->steps[i] += S[i].steps;
+    }
+    b->n_active = n;
+    free(S);
+    gcp_canon_chart_destroy(&C.chart);
+    return n;
+}
+
+/* A chart, and one that gives |B| (the time transformation's w). */
+static int sd_applies(const struct gcp_field *f, char *why, size_t whylen)
+{
+    struct gcp_canon_chart c;
+    if (gcp_canon_chart_create(f, &c, why, whylen)) return GCP_ERR_STATE;
+    const int ok = c.field_strength != NULL;
+    if (!ok && why && whylen)
+        snprintf(why, whylen, "the %s chart gives no |B| for the time transformation", c.name);
+    gcp_canon_chart_destroy(&c);
+    return ok ? 0 : GCP_ERR_STATE;
+}
+
+static size_t sd2_advance(struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                          const struct gcp_sampler *s)
+{
+    (void)p;
+    return sd_advance(b, f, o, s, &gcp_gl2_tableau);
+}
+
+static size_t sd4_advance(struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                          const struct gcp_sampler *s)
+{
+    (void)p;
+    return sd_advance(b, f, o, s, &gcp_gl4_tableau);
+}
+
+const struct gcp_pusher_type gcp_pusher_gc_gl2_sundman = {
+    .name = "gc-gl2-sundman",
+    .doc = "guiding centre, gc-gl2 with symplectic adaptive steps (Sundman transformation, "
+           "dt ~ 1/|B|; dt = the step at the start)",
+    .order = 2,
+    .kind = GCP_GUIDING_CENTRE,
+    .advance = sd2_advance,
+    .applies = sd_applies,
+};
+
+const struct gcp_pusher_type gcp_pusher_gc_gl4_sundman = {
+    .name = "gc-gl4-sundman",
+    .doc = "guiding centre, gc-gl4 with symplectic adaptive steps (Sundman transformation, "
+           "dt ~ 1/|B|; dt = the step at the start)",
+    .order = 4,
+    .kind = GCP_GUIDING_CENTRE,
+    .advance = sd4_advance,
+    .applies = sd_applies,
+};
