@@ -58,6 +58,8 @@ struct fpoint {
     double Hw[2];    /* dH/d(s, p_par) */
     double He;       /* dH/deta */
     double pscale;   /* [kg m/s] |p| + p_perp: the momentum scale for Newton */
+    double Bm;       /* [T] |B| */
+    double Bw0, Be;  /* d|B|/ds, d|B|/deta */
     double h_s;      /* b . dX/ds: zero for an exact chart (the residual is a measure) */
 };
 
@@ -112,6 +114,7 @@ static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_const
     o->Hw[1] = p / (gam * k->m);
     o->He = HB * dBe;
     o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * Bm);
+    o->Bm = Bm, o->Bw0 = dBs, o->Be = dBe;
     o->h_s = b[0] * g.R_s + b[2] * g.Z_s;
     return st;
 }
@@ -212,6 +215,25 @@ static int flux_hamiltonian(const struct gcp_canon_chart *cc, const struct gcp_g
     return 0;
 }
 
+/* |B| at z and d|B|/dz (canon_priv.h, for the Sundman time transformation),
+ * by the same implicit differentiation as H with (d|B|/ds, d|B|/dp_par = 0). */
+static int flux_field_strength(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                               const double z[4], double aux[2], double *Bm, double dBm[4])
+{
+    const struct gcp_flux_chart *c = cc->data;
+    struct fpoint o;
+    const int st = flux_solve(c, k, z, aux, &o);
+    if (st) return st;
+    const double det = o.Gw[0][0] * o.Gw[1][1] - o.Gw[0][1] * o.Gw[1][0];
+    const double l0 = o.Gw[1][1] * o.Bw0 / det, l1 = -o.Gw[0][1] * o.Bw0 / det;
+    *Bm = o.Bm;
+    dBm[0] = 0.0;
+    dBm[1] = o.Be - l0 * o.Ge[0] - l1 * o.Ge[1];
+    dBm[2] = l0;
+    dBm[3] = l1;
+    return 0;
+}
+
 int gcp_flux_chart_hs(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
                       double s, double eta, double ppar, double *h_s)
 {
@@ -261,5 +283,6 @@ int gcp_canon_chart_flux_create(const struct gcp_field *f, struct gcp_canon_char
     out->from_canon = flux_from_canon;
     out->hamiltonian = flux_hamiltonian;
     out->destroy = flux_destroy;
+    out->field_strength = flux_field_strength;
     return 0;
 }
