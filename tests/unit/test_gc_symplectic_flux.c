@@ -353,14 +353,15 @@ Test(gc_symplectic_flux, tokamak_long_run_energy_bounded_pphi_exact, .timeout = 
  *     Not the chart table: on the analytic tokamak the same tabulated
  *     chart gives gc-gl4 energy errors 1e-8 (N = 100) and position within
  *     5e-8 m of the exact chart.
- *   - long runs: at 25 steps per bounce gc-gl2 stops with STEP_FAILED; at
- *     100, gc-gl2 after ~1300-5000 steps, gc-gl4 after ~1700: the
- *     Gauss-Legendre Newton (gc_gauss.c) stalls at an update of 1.13e-12 of
+ *   - long runs (measured with the Gauss-Legendre predictor of i11a's
+ *     e608072): at 25 steps per bounce gc-gl4 stops with STEP_FAILED after
+ *     274 steps, gc-gl2 after 350; at 50, gc-gl4 after 850: the
+ *     Gauss-Legendre Newton (gc_gauss.c) stalls at an update of ~1.1e-12 of
  *     its scales, just above its stall floor GL_FLOOR = 1e-12, for 40
- *     iterations.  With GL_FLOOR = 1e-10 both run 2e4 steps at 100 per bounce
- *     with P_phi exact and energy errors within +-7.6e-4 (gl2), +-2.3e-4
- *     (gl4); gc-gl4 at 25 per bounce still fails after ~11000 steps with
- *     energy errors 0.1. */
+ *     iterations (seen with the earlier predictor at 100 per bounce; with
+ *     GL_FLOOR = 1e-10 those runs completed).  At 100 per bounce both run
+ *     2e4 steps, P_phi exact, |energy error| up to 1.5e-3 (gl2), 3e-4 (gl4)
+ *     sampled every 1000 steps. */
 Test(gc_symplectic_flux, eqdsk_accuracy, .timeout = 300, .disabled = true)
 {
     struct fsys S;
