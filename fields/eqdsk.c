@@ -450,3 +450,35 @@ int gcp_field_eqdsk_from_section(struct gcp_section *sec, struct gcp_field **out
     if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
     return 0;
 }
+
+/* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
+ * (fields/flux_priv.h), from the same bicubic spline as eval. */
+#include "flux_priv.h"
+
+int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6])
+{
+    const struct eqdsk_params *e = f->params;
+    const double p[2] = {R, Z};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const int outside = gcp_spl_locate(&e->psi, p, 2, &loc);
+    gcp_spl_eval(&e->psi, &loc, 0, 2, &o);
+    const double sp = e->s_pol;
+    out[0] = sp * o.f;
+    out[1] = sp * o.d[0];
+    out[2] = sp * o.d[1];
+    out[3] = sp * o.dd[0][0];
+    out[4] = sp * o.dd[0][1];
+    out[5] = sp * o.dd[1][1];
+    return outside ? GCP_LEFT_GRID : 0;
+}
+
+/* The file's magnetic axis and boundary flux (rmaxis, zmaxis, sibry). */
+int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe)
+{
+    const struct eqdsk_params *e = f->params;
+    *Ra = e->info.rmaxis;
+    *Za = e->info.zmaxis;
+    *pe = e->s_pol * e->info.sibry;
+    return 0;
+}

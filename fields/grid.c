@@ -362,7 +362,8 @@ static int grid_eval(const struct gcp_field *f, double t, const double x[3],
         double c, sn;
         const double R = gcp_axi_R(x[0], x[1], g->Rmin, &c, &sn);
         const double p[2] = {R, x[2]};
-        out = gcp_spl_locate(&g->spl, p, g->use_psi && grad ? 2 : grad, &loc);
+        /* with psi, B itself needs its first derivatives (B_R, B_Z), grad B its second */
+        out = gcp_spl_locate(&g->spl, p, g->use_psi ? 1 + grad : grad, &loc);
         double b[3], dR[3] = {0}, dZ[3] = {0};
         grid_axi_comp(g, &loc, R, grad, b, dR, dZ);
         gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);
@@ -547,5 +548,39 @@ int gcp_field_grid_from_section(struct gcp_section *sec, struct gcp_field **out,
     struct gcp_error e2 = {0, ""};
     rc = gcp_field_grid_load(file, ip, use_psi, out, &e2);
     if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
+    return 0;
+}
+
+/* psi with its R, Z derivatives (fields/flux_priv.h): cubic grids only (a
+ * linear interpolant has no second derivatives to give). */
+#include "flux_priv.h"
+
+int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6])
+{
+    const struct grid_params *g = f->params;
+    if (!g->has_psi || g->spl.kind != GCP_SPL_CUBIC) return GCP_ERR_STATE;
+    const double p[2] = {R, Z};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o;
+    const int outside = gcp_spl_locate(&g->spl, p, 2, &loc);
+    gcp_spl_eval(&g->spl, &loc, g->psi_slot, 2, &o);
+    out[0] = o.f;
+    out[1] = o.d[0];
+    out[2] = o.d[1];
+    out[3] = o.dd[0][0];
+    out[4] = o.dd[0][1];
+    out[5] = o.dd[1][1];
+    return outside ? GCP_LEFT_GRID : 0;
+}
+
+/* The node lattice of an axisymmetric grid with a cubic psi (for
+ * grid_flux.c): first node, spacing [m] and node count per axis (R, Z).
+ * 0 or GCP_ERR_STATE. */
+int gcp_grid_psi_lattice(const struct gcp_field *f, double x0[2], double h[2], size_t n[2])
+{
+    const struct grid_params *g = f->params;
+    if (!g->has_psi || g->spl.kind != GCP_SPL_CUBIC || g->geometry != GCP_GRID_AXISYMMETRIC)
+        return GCP_ERR_STATE;
+    for (int a = 0; a < 2; a++) x0[a] = g->spl.x0[a], h[a] = g->spl.h[a], n[a] = g->spl.n[a];
     return 0;
 }

@@ -239,3 +239,119 @@ int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **o
     if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "tokamak field: out of memory");
     return 0;
 }
+
+/* ---- flux function and the exact orthogonal chart (fields/flux_priv.h) ---- */
+
+#include "flux_priv.h"
+
+/* psi(r^2) = int_0^r B0 r'/q(r') dr' = B0 r^2/(2 q0) log1p(v)/v, v = dq r^2/q0
+ * (the same expression as gcp_gc_potential's, so p_phi agrees to round-off). */
+static double tok_psi(const struct tokamak_params *p, double r2)
+{
+    const double v = p->dq * r2 / p->q0;
+    const double lv = v != 0.0 ? log1p(v) / v : 1.0;
+    return p->B0 * r2 / (2.0 * p->q0) * lv;
+}
+
+/* psi_R = (B0/q) (R - R0), psi_Z = (B0/q) Z (grad psi = psi'(r) grad r with
+ * psi' = B0 r/q); d(B0/q)/dR = -2 B0 dq (R - R0)/q^2, likewise in Z. */
+int gcp_tokamak_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6])
+{
+    const struct tokamak_params *p = f->params;
+    const double dR = R - p->R0, r2 = dR * dR + Z * Z;
+    const double q = p->q0 + p->dq * r2, F = p->B0 / q, F2 = 2.0 * F * p->dq / q;
+    out[0] = tok_psi(p, r2);
+    out[1] = F * dR;
+    out[2] = F * Z;
+    out[3] = F - F2 * dR * dR;
+    out[4] = -F2 * dR * Z;
+    out[5] = F - F2 * Z * Z;
+    return r2 > p->a2 ? GCP_LEFT_DOMAIN : 0;
+}
+
+int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe)
+{
+    const struct tokamak_params *p = f->params;
+    *Ra = p->R0;
+    *Za = 0.0;
+    *pe = tok_psi(p, p->a2);
+    return 0;
+}
+
+/* g(x) = (x - log1p(x))/x^2 = sum_k (-x)^k/(k+2) and
+ * h(x) = -g'(x) = (x - 2 log1p(x) + x/(1+x))/x^3 = sum_k (k+1)/(k+3) (-x)^k.
+ * The closed forms cancel like eps/x^2 and eps/x^3 at small x, so below
+ * |x| = 1/4 the series is summed (32 terms: 4^-32 < 1e-19); above it the
+ * cancellation costs at most about eps |x| / (|x|^3/3) = 50 eps < 1.2e-14
+ * relative in h, less in g. */
+static void tok_gh(double x, double *g, double *h)
+{
+    if (fabs(x) < 0.25) {
+        double sg = 0.0, sh = 0.0;
+        for (int k = 31; k >= 0; k--) {
+            sg = sg * (-x) + 1.0 / (k + 2);
+            sh = sh * (-x) + (double)(k + 1) / (k + 3);
+        }
+        *g = sg;
+        *h = sh;
+        return;
+    }
+    const double l = log1p(x);
+    *g = (x - l) / (x * x);
+    *h = (x - 2.0 * l + x / (1.0 + x)) / (x * x * x);
+}
+
+/* The chart (s, eta) = (r, theta): R = R0 + r cos theta, Z = r sin theta,
+ * exactly orthogonal, psi = psi(r).  J = -r R, B^phi = B0 R0/R^2, so in the
+ * gauge A_r = 0
+ *   A_theta(r, theta) = -B0 R0 int_0^r r'/(R0 + r' cos theta) dr'
+ *                     = -B0 R0^2 u^2 g(u cos theta),              u = r/R0,
+ *   dA_theta/dr = -B0 R0 r / R,
+ *   dA_theta/dtheta = -B0 R0^2 u^3 sin theta h(u cos theta).
+ * With g and h as above there is no cancellation at cos theta -> 0.  The
+ * chart is smooth through r = 0 (r -> -r, theta -> theta + pi gives the same
+ * point and the same A_theta), so map accepts r < 0. */
+static int tok_chart_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
+{
+    const struct tokamak_params *p = ctx;
+    const double c = cos(eta), sn = sin(eta), r = s;
+    const double R = p->R0 + r * c;
+    pt->R = R;
+    pt->Z = r * sn;
+    pt->R_s = c, pt->Z_s = sn;
+    pt->R_e = -r * sn, pt->Z_e = r * c;
+    pt->R_ss = 0.0, pt->Z_ss = 0.0;
+    pt->R_se = -sn, pt->Z_se = c;
+    pt->R_ee = -r * c, pt->Z_ee = -r * sn;
+    const double u = r / p->R0;
+    double g, h;
+    tok_gh(u * c, &g, &h);
+    pt->A = -p->B0R0 * p->R0 * u * u * g;
+    pt->A_s = -p->B0R0 * r / R;
+    pt->A_e = -p->B0R0 * p->R0 * u * u * u * sn * h;
+    const double r2 = r * r;
+    pt->psi = tok_psi(p, r2);
+    pt->psi_s = p->B0 * r / (p->q0 + p->dq * r2);
+    pt->psi_e = 0.0;
+    return r2 > p->a2 ? GCP_LEFT_DOMAIN : 0;
+}
+
+static int tok_chart_locate(const void *ctx, double R, double Z, double *s, double *eta)
+{
+    const struct tokamak_params *p = ctx;
+    const double dR = R - p->R0;
+    *s = hypot(dR, Z);
+    *eta = atan2(Z, dR);
+    return *s * *s > p->a2 ? GCP_LEFT_DOMAIN : 0;
+}
+
+int gcp_tokamak_polchart(const struct gcp_field *f, struct gcp_polchart *out)
+{
+    const struct tokamak_params *p = f->params;
+    out->ctx = p;
+    out->map = tok_chart_map;
+    out->locate = tok_chart_locate;
+    out->s_max = p->a;
+    out->what = "(r, theta) about the magnetic axis";
+    return 0;
+}

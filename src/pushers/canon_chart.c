@@ -8,6 +8,7 @@
 
 #include "gcpush/error.h"
 #include "canon_priv.h"
+#include "canon_flux_priv.h"
 
 int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_chart *out,
                                     char *why, size_t whylen);
@@ -19,8 +20,7 @@ static const struct {
     chart_ctor create;
 } charts[] = {
     {"curl-free", gcp_canon_chart_curlfree_create},
-    /* issue 11 part B: {"flux", gcp_canon_chart_flux_create} (tokamak, G-EQDSK,
-     * R-Z grids with psi) goes here */
+    {"flux", gcp_canon_chart_flux_create}, /* tokamak, G-EQDSK, R-Z grids with psi */
     {NULL, NULL},
 };
 

@@ -1,0 +1,31 @@
+/* The flux-function accessors of fields/flux_priv.h: one dispatch on the
+ * model, here inside fields/, so that the canonical charts never ask which
+ * model they have. */
+#include "flux_priv.h"
+
+#include "field_priv.h"
+#include "gcpush/particles.h"
+#include "grid_priv.h"
+
+int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6])
+{
+    if (f->type == &gcp_field_tokamak) return gcp_tokamak_psi_RZ(f, R, Z, out);
+    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_psi_RZ2(f, R, Z, out);
+    if (f->type == &gcp_field_grid) return gcp_grid_psi_RZ(f, R, Z, out);
+    return GCP_ERR_STATE;
+}
+
+int gcp_field_flux_surfaces(const struct gcp_field *f, double *R_axis, double *Z_axis,
+                            double *psi_edge)
+{
+    if (f->type == &gcp_field_tokamak) return gcp_tokamak_flux_surfaces(f, R_axis, Z_axis, psi_edge);
+    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_flux_surfaces(f, R_axis, Z_axis, psi_edge);
+    if (f->type == &gcp_field_grid) return gcp_grid_flux_surfaces(f, R_axis, Z_axis, psi_edge);
+    return GCP_ERR_STATE;
+}
+
+int gcp_field_polchart(const struct gcp_field *f, struct gcp_polchart *out)
+{
+    if (f->type == &gcp_field_tokamak) return gcp_tokamak_polchart(f, out);
+    return GCP_ERR_STATE;
+}

@@ -1,0 +1,67 @@
+/* fields/flux_priv.h -- what the canonical flux charts (src/pushers/
+ * canon_flux*.c, issue 11) need from an axisymmetric model with a flux
+ * function, without knowing which model it is.  Not installed.
+ *
+ * Conventions: cylindrical (R, phi, Z), right-handed (Rhat x phihat = Zhat);
+ * psi = R A_phi [Wb/rad] as in gcp_field_psi, B_pol = grad psi x grad phi.
+ */
+#ifndef GCPUSH_FLUX_PRIV_H
+#define GCPUSH_FLUX_PRIV_H
+
+#include <stddef.h>
+
+#include "gcpush/field.h"
+
+/* psi and its R, Z derivatives up to second order at (R, Z):
+ * out = {psi, psi_R, psi_Z, psi_RR, psi_RZ, psi_ZZ} [Wb/rad, /m, /m^2].
+ * 0, GCP_LEFT_GRID / GCP_LEFT_DOMAIN outside the model's domain (values are
+ * still finite), or GCP_ERR_STATE for a model without a flux function. */
+int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
+
+/* Where the model's closed flux surfaces are, when it knows: a guess of the
+ * magnetic axis (R_axis, Z_axis) [m] and psi_edge [Wb/rad], the flux of the
+ * last closed surface (the plasma boundary).  0 or GCP_ERR_STATE. */
+int gcp_field_flux_surfaces(const struct gcp_field *f, double *R_axis, double *Z_axis,
+                            double *psi_edge);
+
+/* One point of an orthogonal poloidal chart (s, eta) of the R-Z plane:
+ * eta is constant along the gradient lines of psi (so dX/ds is along
+ * grad psi), and A_eta is the covariant eta component of a vector potential
+ * in the gauge A_s = 0, A = psi grad phi + A_eta grad eta, i.e.
+ *   dA_eta/ds = J B^phi = (Z_s R_e - R_s Z_e) B_phi,
+ * J = dX/ds . (dX/deta x dX/dphi) the Jacobian of (s, eta, phi).
+ * Suffixes _s, _e are partial derivatives with respect to s and eta. */
+struct gcp_polchart_pt {
+    double R, Z;                       /* [m] */
+    double R_s, Z_s, R_e, Z_e;         /* [m/s-unit], [m/eta-unit] */
+    double R_ss, Z_ss, R_se, Z_se, R_ee, Z_ee; /* second derivatives */
+    double A, A_s, A_e;                /* A_eta [T m^2/eta-unit] and derivatives */
+    double psi, psi_s, psi_e;          /* psi(X(s, eta)) [Wb/rad] and derivatives */
+};
+
+/* An exact orthogonal poloidal chart the model knows in closed form. */
+struct gcp_polchart {
+    const void *ctx;  /* the model's parameters (not owned) */
+    /* (s, eta) -> point.  0, or GCP_LEFT_DOMAIN for s outside [0, s_max]
+     * (the point is still filled, finite). */
+    int (*map)(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt);
+    /* (R, Z) -> (s, eta), eta in (-pi, pi].  0 or GCP_LEFT_DOMAIN. */
+    int (*locate)(const void *ctx, double R, double Z, double *s, double *eta);
+    double s_max;     /* [s-unit] edge of the chart */
+    const char *what; /* "(r, theta) about the magnetic axis", for messages */
+};
+
+/* The model's closed-form chart: 0, or GCP_ERR_STATE when it has none. */
+int gcp_field_polchart(const struct gcp_field *f, struct gcp_polchart *out);
+
+/* Per-model implementations (dispatched from flux.c). */
+int gcp_tokamak_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
+int gcp_tokamak_polchart(const struct gcp_field *f, struct gcp_polchart *out);
+int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
+int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6]);
+int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
+int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
+int gcp_grid_psi_lattice(const struct gcp_field *f, double x0[2], double h[2], size_t n[2]);
+int gcp_grid_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
+
+#endif

@@ -1,0 +1,288 @@
+/* Canonical flux charts: guiding centres in axisymmetric fields with a
+ * toroidal field and currents (analytic tokamak, G-EQDSK, R-Z grids with
+ * psi), issue 11.  The interface is canon_priv.h; this file is the chart
+ * algebra, shared by every orthogonal poloidal chart (fields/flux_priv.h):
+ * the closed-form one a model knows (the analytic tokamak's (r, theta)) and
+ * the tabulated one canon_flux_num.c builds from psi (EQDSK, grids).
+ *
+ * The one-form.  In orthogonal poloidal coordinates (s, eta) of the R-Z
+ * plane with eta constant along the gradient lines of psi, dX/ds is along
+ * grad psi, so b_s = b . dX/ds = 0 (b_pol is tangent to the flux surfaces).
+ * In the gauge A_s = 0, A = psi grad phi + A_eta grad eta with
+ * dA_eta/ds = J B^phi (the phi component of curl A is the toroidal field;
+ * J the Jacobian of (s, eta, phi)), and
+ *   theta = (q A + p_par b) . dX
+ *         = (q A_eta + p_par h_eta) deta + (q psi + p_par F/|B|) dphi,
+ * h_eta = b . dX/deta, F/|B| = R b_phi = b . dX/dphi (Littlejohn 1983's
+ * Lagrangian; the construction follows the canonical flux coordinates of
+ * White & Chance 1984 and Albert, Kasilov & Kernbichler 2020, with the
+ * orthogonal chart in place of Boozer coordinates).  Hence
+ *   z = (phi, eta, P_phi = q psi + p_par R b_phi, P_eta = q A_eta + p_par h_eta)
+ * are canonical, and H = gamma m c^2,
+ *   gamma = sqrt(1 + (p_par/mc)^2 + 2 mu |B| / (m c^2)),  |B| at X(s, eta).
+ *
+ * Inversion.  Given (eta, P_phi, P_eta), w = (s, p_par) solves
+ *   G(w; eta) = (q psi + p k, q A_eta + p h) = (P_phi, P_eta),  k = R b_phi,
+ * by Newton from the guess in aux (the last point).  The Jacobian
+ *   dG/dw = [[q psi_s + p k_s, k], [q A_s + p h_s, h]]
+ * has determinant q J |B|-ish times B*_par/|B|: regular away from the axis
+ * (J = 0) and where B*_par > 0.
+ * Derivatives of H by implicit differentiation: with lambda solving
+ * (dG/dw)^T lambda = dH/dw,
+ *   dH/dP = lambda,  dH/deta = H_eta - lambda . dG/deta,  dH/dphi = 0.
+ * Everything is the exact derivative of the chart's own H(z) (the field's
+ * grad B is the derivative of its B; the chart's X_s, X_se, ... are the
+ * derivatives of its X), so a symplectic integrator on z is symplectic to
+ * round-off whatever the chart's accuracy.
+ *
+ * The field is evaluated at phi = 0, X = (R, 0, Z): Rhat = x, phihat = y,
+ * Zhat = z there, and axisymmetry gives every other phi.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "canon_flux_priv.h"
+#include "gcpush/error.h"
+#include "gcpush/kernels.h"
+#include "gcpush/particles.h"
+
+/* Everything at one (s, eta, p_par). */
+struct fpoint {
+    double R, Z;     /* [m] */
+    double P[2];     /* (P_phi, P_eta) */
+    double Gw[2][2]; /* d(P_phi, P_eta)/d(s, p_par) */
+    double Ge[2];    /* d(P_phi, P_eta)/deta */
+    double H;        /* [J] */
+    double Hw[2];    /* dH/d(s, p_par) */
+    double He;       /* dH/deta */
+    double pscale;   /* [kg m/s] |p| + p_perp: the momentum scale for Newton */
+    double Bm;       /* [T] |B| */
+    double Bw0, Be;  /* d|B|/ds, d|B|/deta */
+    double h_s;      /* b . dX/ds: zero for an exact chart (the residual is a measure) */
+};
+
+/* d b along v = (vR, 0, vZ): (G v - b (b . G v)) / |B|; returns d|B| = b . G v. */
+static double dir_deriv(const double G[3][3], const double b[3], double Bm, double vR, double vZ,
+                        double db[3])
+{
+    double Gv[3];
+    for (int i = 0; i < 3; i++) Gv[i] = G[i][0] * vR + G[i][2] * vZ;
+    const double dB = b[0] * Gv[0] + b[1] * Gv[1] + b[2] * Gv[2];
+    for (int i = 0; i < 3; i++) db[i] = (Gv[i] - b[i] * dB) / Bm;
+    return dB;
+}
+
+static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k, double s,
+                       double eta, double p, struct fpoint *o)
+{
+    struct gcp_polchart_pt g;
+    int st = c->pc.map(c->pc.ctx, s, eta, &g);
+    const double X[3] = {g.R, 0.0, g.Z};
+    struct gcp_field_sample fs = {.need = GCP_NEED_B | GCP_NEED_GRADB};
+    const int fst = gcp_field_eval(c->field, 0.0, X, &fs);
+    if (!st) st = fst;
+    const double Bm = sqrt(fs.B[0] * fs.B[0] + fs.B[1] * fs.B[1] + fs.B[2] * fs.B[2]);
+    if (!(Bm > 0.0)) return GCP_STEP_FAILED;
+    const double b[3] = {fs.B[0] / Bm, fs.B[1] / Bm, fs.B[2] / Bm};
+    double dbs[3], dbe[3];
+    const double dBs = dir_deriv(fs.gradB, b, Bm, g.R_s, g.Z_s, dbs);
+    const double dBe = dir_deriv(fs.gradB, b, Bm, g.R_e, g.Z_e, dbe);
+    /* k = F/|B| = R b_phi;  h = b . X_e */
+    const double kk = g.R * b[1];
+    const double k_s = g.R_s * b[1] + g.R * dbs[1];
+    const double k_e = g.R_e * b[1] + g.R * dbe[1];
+    const double h = b[0] * g.R_e + b[2] * g.Z_e;
+    const double h_s = dbs[0] * g.R_e + dbs[2] * g.Z_e + b[0] * g.R_se + b[2] * g.Z_se;
+    const double h_e = dbe[0] * g.R_e + dbe[2] * g.Z_e + b[0] * g.R_ee + b[2] * g.Z_ee;
+    const double q = k->q;
+    o->R = g.R;
+    o->Z = g.Z;
+    o->P[0] = q * g.psi + p * kk;
+    o->P[1] = q * g.A + p * h;
+    o->Gw[0][0] = q * g.psi_s + p * k_s;
+    o->Gw[0][1] = kk;
+    o->Gw[1][0] = q * g.A_s + p * h_s;
+    o->Gw[1][1] = h;
+    o->Ge[0] = q * g.psi_e + p * k_e;
+    o->Ge[1] = q * g.A_e + p * h_e;
+    const double gam = gcp_gc_gamma(p, k->mu, Bm, k->m);
+    const double HB = k->mu / gam; /* dH/d|B| */
+    o->H = gam * k->m * GCP_C_LIGHT * GCP_C_LIGHT;
+    o->Hw[0] = HB * dBs;
+    o->Hw[1] = p / (gam * k->m);
+    o->He = HB * dBe;
+    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * Bm);
+    o->Bm = Bm, o->Bw0 = dBs, o->Be = dBe;
+    o->h_s = b[0] * g.R_s + b[2] * g.Z_s;
+    return st;
+}
+
+/* Newton for w = (s, p) with G(w; eta) = P.  aux is the guess in, the
+ * solution out.  Once the relative step is below 1e-10 (quadratic
+ * convergence: the next is at round-off) the iteration runs until the step
+ * no longer halves or is below 1e-15, and stops at that point: the round-off
+ * floor of p_par, which P_phi - q psi determines with a cancellation of
+ * ~|q psi| / (p R), is reached without a fixed tolerance that the floor
+ * could exceed.  The point is evaluated where it stops.  s is kept above 0
+ * (the axis, where J = 0). */
+static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
+                      const double z[4], double aux[2], struct fpoint *o)
+{
+    double s = aux[0], p = aux[1];
+    if (!(isfinite(s) && isfinite(p) && isfinite(z[1] + z[2] + z[3]))) return GCP_STEP_FAILED;
+    const double sscale = c->pc.s_max;
+    double eprev = INFINITY;
+    int done = 0;
+    for (int it = 0; it < 60; it++) {
+        const int st = fpoint_eval(c, k, s, z[1], p, o);
+        if (done) {
+            aux[0] = s, aux[1] = p;
+            return st;
+        }
+        const double r0 = o->P[0] - z[2], r1 = o->P[1] - z[3];
+        const double det = o->Gw[0][0] * o->Gw[1][1] - o->Gw[0][1] * o->Gw[1][0];
+        if (!(det != 0.0) || !isfinite(det)) return GCP_STEP_FAILED;
+        const double ds = -(o->Gw[1][1] * r0 - o->Gw[0][1] * r1) / det;
+        const double dp = -(-o->Gw[1][0] * r0 + o->Gw[0][0] * r1) / det;
+        const double e = fmax(fabs(ds) / sscale, fabs(dp) / o->pscale);
+        if (eprev < 1e-10 && (e > 0.5 * eprev || e < 1e-15)) {
+            /* at the floor: this step is noise (or nothing); take it only
+             * when it is still a real improvement */
+            if (e < 1e-15) s += ds, p += dp;
+            done = 1;
+            continue;
+        }
+        double sn = s + ds;
+        if (!(sn > 0.0)) sn = 0.5 * s; /* never through the axis */
+        if (sn > 2.0 * sscale) sn = 0.5 * (s + 2.0 * sscale);
+        s = sn;
+        p += dp;
+        eprev = e;
+    }
+    return GCP_STEP_FAILED;
+}
+
+static int flux_to_canon(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                         const double X[3], double ppar, double z[4], double aux[2])
+{
+    const struct gcp_flux_chart *c = cc->data;
+    const double R = hypot(X[0], X[1]);
+    double s, eta;
+    int st = c->pc.locate(c->pc.ctx, R, X[2], &s, &eta);
+    if (st) return st;
+    struct fpoint o;
+    st = fpoint_eval(c, k, s, eta, ppar, &o);
+    z[0] = atan2(X[1], X[0]);
+    z[1] = eta;
+    z[2] = o.P[0];
+    z[3] = o.P[1];
+    aux[0] = s;
+    aux[1] = ppar;
+    return st;
+}
+
+static int flux_from_canon(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                           const double z[4], double aux[2], double X[3], double *ppar)
+{
+    const struct gcp_flux_chart *c = cc->data;
+    struct fpoint o;
+    const int st = flux_solve(c, k, z, aux, &o);
+    X[0] = o.R * cos(z[0]);
+    X[1] = o.R * sin(z[0]);
+    X[2] = o.Z;
+    *ppar = aux[1];
+    return st;
+}
+
+static int flux_hamiltonian(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                            const double z[4], double aux[2], double *H, double dH[4])
+{
+    const struct gcp_flux_chart *c = cc->data;
+    struct fpoint o;
+    const int st = flux_solve(c, k, z, aux, &o);
+    if (st) return st;
+    /* (dG/dw)^T lambda = dH/dw */
+    const double det = o.Gw[0][0] * o.Gw[1][1] - o.Gw[0][1] * o.Gw[1][0];
+    const double l0 = (o.Gw[1][1] * o.Hw[0] - o.Gw[1][0] * o.Hw[1]) / det;
+    const double l1 = (-o.Gw[0][1] * o.Hw[0] + o.Gw[0][0] * o.Hw[1]) / det;
+    *H = o.H;
+    dH[0] = 0.0;
+    dH[1] = o.He - l0 * o.Ge[0] - l1 * o.Ge[1];
+    dH[2] = l0;
+    dH[3] = l1;
+    return 0;
+}
+
+/* |B| at z and d|B|/dz (canon_priv.h, for the Sundman time transformation),
+ * by the same implicit differentiation as H with (d|B|/ds, d|B|/dp_par = 0). */
+static int flux_field_strength(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                               const double z[4], double aux[2], double *Bm, double dBm[4])
+{
+    const struct gcp_flux_chart *c = cc->data;
+    struct fpoint o;
+    const int st = flux_solve(c, k, z, aux, &o);
+    if (st) return st;
+    const double det = o.Gw[0][0] * o.Gw[1][1] - o.Gw[0][1] * o.Gw[1][0];
+    const double l0 = o.Gw[1][1] * o.Bw0 / det, l1 = -o.Gw[0][1] * o.Bw0 / det;
+    *Bm = o.Bm;
+    dBm[0] = 0.0;
+    dBm[1] = o.Be - l0 * o.Ge[0] - l1 * o.Ge[1];
+    dBm[2] = l0;
+    dBm[3] = l1;
+    return 0;
+}
+
+int gcp_flux_chart_hs(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                      double s, double eta, double ppar, double *h_s)
+{
+    struct fpoint o;
+    const int st = fpoint_eval(cc->data, k, s, eta, ppar, &o);
+    *h_s = o.h_s;
+    return st;
+}
+
+static void flux_destroy(void *data)
+{
+    struct gcp_flux_chart *c = data;
+    if (!c) return;
+    if (c->free_ctx) c->free_ctx(c->owned);
+    free(c);
+}
+
+int gcp_canon_chart_flux_create(const struct gcp_field *f, struct gcp_canon_chart *out, char *why,
+                                size_t whylen)
+{
+    memset(out, 0, sizeof *out);
+    if (!f->axisymmetric) {
+        snprintf(why, whylen, "the field is not axisymmetric");
+        return GCP_ERR_STATE;
+    }
+    if (f->has_E || f->time_dependent) {
+        snprintf(why, whylen, "the flux chart takes static fields without an electric field");
+        return GCP_ERR_STATE;
+    }
+    struct gcp_flux_chart *c = calloc(1, sizeof *c);
+    if (!c) {
+        snprintf(why, whylen, "out of memory");
+        return GCP_ERR_NOMEM;
+    }
+    c->field = f;
+    if (gcp_field_polchart(f, &c->pc) != 0) {
+        const int rc = gcp_flux_num_build(f, c, why, whylen);
+        if (rc) {
+            free(c);
+            return rc;
+        }
+    }
+    out->name = "flux-orthogonal";
+    out->field = f;
+    out->data = c;
+    out->to_canon = flux_to_canon;
+    out->from_canon = flux_from_canon;
+    out->hamiltonian = flux_hamiltonian;
+    out->destroy = flux_destroy;
+    out->field_strength = flux_field_strength;
+    return 0;
+}

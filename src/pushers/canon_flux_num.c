@@ -1,0 +1,446 @@
+/* The tabulated orthogonal poloidal chart (s, eta) = (rho, eta) of an
+ * axisymmetric field with a flux function (G-EQDSK, R-Z grids with psi, or
+ * any model with gcp_field_psi_RZ), for the canonical flux chart
+ * (canon_flux.c).  Built once, at construction.
+ *
+ *   rho = sqrt(psi_N),  psi_N = (psi - psi_axis) / (psi_edge - psi_axis),
+ * so R(rho, eta) = R_axis + rho c(eta) + O(rho^2) is smooth at the axis.
+ * eta labels the gradient lines of psi by the geometric angle about the
+ * axis at which they cross the reference surface rho_ref.  Each line is
+ * traced from there, in and out, with GSL rk8pd at 1e-13:
+ *   dX/drho   = V(X) = 2 rho Dpsi grad psi / |grad psi|^2      (psi_N = rho^2),
+ *   dX_e/drho = DV(X) X_e,  DV = 2 rho Dpsi (H/|g|^2 - 2 g (H g)^T/|g|^4)
+ *               (the tangent equation: X_e = dX/deta, g = grad psi, H its
+ *               Hessian; X_e stays tangent to the flux surface),
+ *   dA/drho   = (Z_rho R_eta - R_rho Z_eta) B_phi(X)   (= J B^phi, gauge A_rho = 0),
+ * starting from X_e on the reference surface (psi(X(eta)) = const:
+ * X = X_axis + t(eta) e(eta), t' = -t (g.e')/(g.e)), with A = 0 on the axis
+ * (the remaining gauge freedom A_eta + f(eta) fixed by regularity there).
+ * R, Z, A on a uniform (rho, eta) grid, periodic in eta (padded by NPAD
+ * nodes each side: the clamped end conditions of the cubic B-spline decay
+ * like 0.27^k into the table, 0.27^12 ~ 1.6e-7 of an O(h^4) slope error)
+ * are interpolated by the C2 bicubic spline of fields/grid_priv.h; its
+ * derivatives are the chart's, so the chart is exactly canonical in its own
+ * coordinates, and approximates the true one-form to the tabulation error
+ * (O(h^4) in R, Z, A; O(h^3) in dX/drho, so h_s = b . dX/drho = O(h^3),
+ * measured in tests/unit/test_canon_flux.c).
+ *
+ * Domain: rho <= rho_max = sqrt(psiN_max) (default psi_N <= 0.9: the chart
+ * degenerates at the separatrix, where grad psi -> 0 at the X-point); a
+ * particle beyond gets GCP_LEFT_DOMAIN, and one at the axis (rho -> 0, where
+ * the chart is polar) GCP_STEP_FAILED from the inversion.
+ */
+#include <math.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_odeiv2.h>
+
+#include "canon_flux_priv.h"
+#include "gcpush/error.h"
+#include "gcpush/particles.h"
+#include "grid_priv.h"
+
+#define NRHO 128
+#define NETA 512
+#define NPAD 12       /* periodic padding each side */
+#define PSIN_MAX 0.9  /* edge of the chart in psi_N */
+#define RHO_REF 0.6
+
+/* The table: immutable once built, shared (reference counted) by every
+ * chart of fields with the same fingerprint (see the cache below). */
+struct numchart {
+    const struct gcp_field *f; /* during construction only (NULL after) */
+    int refs;                  /* holders (charts and the cache), under cache_lock */
+    struct gcp_spl spl; /* (rho, eta): 0 R, 1 Z, 2 A_eta */
+    double Ra, Za;      /* [m] magnetic axis (of the field's psi) */
+    double psia, dpsi;  /* [Wb/rad] psi on axis, psi_edge - psi_axis */
+    double rho_max;
+};
+
+/* What a chart's map and locate see: the field and the shared table. */
+struct numview {
+    const struct gcp_field *f;
+    struct numchart *t;
+};
+
+static void table_free(struct numchart *n)
+{
+    if (!n) return;
+    gcp_spl_free(&n->spl);
+    free(n);
+}
+
+static double wrap_eta(double eta)
+{
+    return eta - 2.0 * GCP_PI * floor((eta + GCP_PI) / (2.0 * GCP_PI));
+}
+
+static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
+{
+    const struct numview *v = ctx;
+    const struct numchart *n = v->t;
+    const double x[2] = {s, wrap_eta(eta)};
+    struct gcp_spl_loc loc;
+    struct gcp_spl_out o[3];
+    gcp_spl_locate(&n->spl, x, 2, &loc);
+    for (int c = 0; c < 3; c++) gcp_spl_eval(&n->spl, &loc, c, 2, &o[c]);
+    pt->R = o[0].f, pt->Z = o[1].f, pt->A = o[2].f;
+    pt->R_s = o[0].d[0], pt->R_e = o[0].d[1];
+    pt->Z_s = o[1].d[0], pt->Z_e = o[1].d[1];
+    pt->A_s = o[2].d[0], pt->A_e = o[2].d[1];
+    pt->R_ss = o[0].dd[0][0], pt->R_se = o[0].dd[0][1], pt->R_ee = o[0].dd[1][1];
+    pt->Z_ss = o[1].dd[0][0], pt->Z_se = o[1].dd[0][1], pt->Z_ee = o[1].dd[1][1];
+    double ps[6];
+    const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
+    pt->psi = ps[0];
+    pt->psi_s = ps[1] * pt->R_s + ps[2] * pt->Z_s;
+    pt->psi_e = ps[1] * pt->R_e + ps[2] * pt->Z_e;
+    if (!(s >= 0.0 && s <= n->rho_max)) return GCP_LEFT_DOMAIN;
+    return st ? GCP_LEFT_DOMAIN : 0;
+}
+
+/* (R, Z) -> (rho, eta): Newton on X(rho, eta) = (R, Z) from rho = sqrt(psi_N)
+ * and the eta node nearest to (R, Z) on that surface (a scan: this runs
+ * once per particle, in to_canon), with the eta step kept below one node. */
+static int num_locate(const void *ctx, double R, double Z, double *s, double *eta)
+{
+    const struct numview *v = ctx;
+    const struct numchart *n = v->t;
+    double ps[6];
+    if (gcp_field_psi_RZ(v->f, R, Z, ps)) return GCP_LEFT_DOMAIN;
+    const double psiN = (ps[0] - n->psia) / n->dpsi;
+    if (!(psiN <= PSIN_MAX)) return GCP_LEFT_DOMAIN;
+    double rho = sqrt(fmax(psiN, 0.0)), e = 0.0, best = INFINITY;
+    for (int j = 0; j < NETA; j++) {
+        struct gcp_polchart_pt p;
+        const double ej = -GCP_PI + 2.0 * GCP_PI * j / NETA;
+        num_map(v, rho, ej, &p);
+        const double dd = hypot(p.R - R, p.Z - Z);
+        if (dd < best) best = dd, e = ej;
+    }
+    for (int it = 0; it < 60; it++) {
+        struct gcp_polchart_pt p;
+        num_map(v, rho, e, &p);
+        const double fR = p.R - R, fZ = p.Z - Z;
+        const double det = p.R_s * p.Z_e - p.R_e * p.Z_s;
+        if (!(det != 0.0)) return GCP_STEP_FAILED;
+        const double dr = -(p.Z_e * fR - p.R_e * fZ) / det;
+        double de = -(-p.Z_s * fR + p.R_s * fZ) / det;
+        const double demax = 2.0 * GCP_PI / NETA;
+        if (fabs(de) > demax) de = copysign(demax, de);
+        rho += dr, e += de;
+        if (!(rho > 0.0)) rho = 1e-6 * n->rho_max;
+        /* converged when the step moves X by less than 1e-14 R (round-off) */
+        if (hypot(dr * p.R_s + de * p.R_e, dr * p.Z_s + de * p.Z_e) < 1e-14 * R) {
+            *s = rho, *eta = wrap_eta(e);
+            return rho <= n->rho_max ? 0 : GCP_LEFT_DOMAIN;
+        }
+    }
+    return GCP_STEP_FAILED;
+}
+
+/* ---- construction -------------------------------------------------------- */
+
+struct trace_ctx {
+    const struct gcp_field *f;
+    double dpsi;
+    int status;
+};
+
+/* y = (R, Z, R_e, Z_e, A), t = rho */
+static int trace_rhs(double rho, const double y[], double dy[], void *vctx)
+{
+    struct trace_ctx *c = vctx;
+    double ps[6];
+    int st = gcp_field_psi_RZ(c->f, y[0], y[1], ps);
+    const double gR = ps[1], gZ = ps[2], g2 = gR * gR + gZ * gZ;
+    if (st || !(g2 > 0.0)) {
+        c->status = st ? st : GCP_STEP_FAILED;
+        return GSL_EBADFUNC;
+    }
+    const double k = 2.0 * rho * c->dpsi;
+    const double VR = k * gR / g2, VZ = k * gZ / g2;
+    /* DV_ij = k (H_ij/g2 - 2 g_i (H g)_j / g2^2) */
+    const double HgR = ps[3] * gR + ps[4] * gZ, HgZ = ps[4] * gR + ps[5] * gZ;
+    const double i2 = 1.0 / g2, i4 = 2.0 * i2 * i2;
+    const double D00 = k * (ps[3] * i2 - i4 * gR * HgR), D01 = k * (ps[4] * i2 - i4 * gR * HgZ);
+    const double D10 = k * (ps[4] * i2 - i4 * gZ * HgR), D11 = k * (ps[5] * i2 - i4 * gZ * HgZ);
+    const double X[3] = {y[0], 0.0, y[1]};
+    struct gcp_field_sample s = {.need = GCP_NEED_B};
+    if ((st = gcp_field_eval(c->f, 0.0, X, &s))) {
+        c->status = st;
+        return GSL_EBADFUNC;
+    }
+    dy[0] = VR;
+    dy[1] = VZ;
+    dy[2] = D00 * y[2] + D01 * y[3];
+    dy[3] = D10 * y[2] + D11 * y[3];
+    dy[4] = (VZ * y[2] - VR * y[3]) * s.B[1]; /* B_phi = B_y at phi = 0 */
+    return GSL_SUCCESS;
+}
+
+/* grad psi = 0 by Newton from the guess. */
+static int find_axis(const struct gcp_field *f, double *R, double *Z, double *psi)
+{
+    for (int it = 0; it < 50; it++) {
+        double p[6];
+        if (gcp_field_psi_RZ(f, *R, *Z, p)) return GCP_LEFT_DOMAIN;
+        const double det = p[3] * p[5] - p[4] * p[4];
+        if (!(det > 0.0)) return GCP_STEP_FAILED; /* not an extremum */
+        const double dR = -(p[5] * p[1] - p[4] * p[2]) / det;
+        const double dZ = -(-p[4] * p[1] + p[3] * p[2]) / det;
+        *R += dR, *Z += dZ;
+        *psi = p[0];
+        if (hypot(dR, dZ) < 1e-13 * fabs(*R)) {
+            gcp_field_psi_RZ(f, *R, *Z, p);
+            *psi = p[0];
+            return 0;
+        }
+    }
+    return GCP_STEP_FAILED;
+}
+
+/* Point of the surface psi_N = pn on the ray at angle eta from the axis,
+ * and dX/deta there (the surface's own parameterisation by the angle). */
+static int ref_point(const struct numchart *n, double pn, double eta, double y[5])
+{
+    const double c = cos(eta), s = sin(eta);
+    double t = 0.0, t1 = 0.05, ps[6];
+    /* bracket by stepping out, then bisect + secant to round-off */
+    for (;;) {
+        if (gcp_field_psi_RZ(n->f, n->Ra + t1 * c, n->Za + t1 * s, ps)) return GCP_LEFT_DOMAIN;
+        if ((ps[0] - n->psia) / n->dpsi >= pn) break;
+        t = t1, t1 *= 1.5;
+        if (t1 > 100.0) return GCP_STEP_FAILED;
+    }
+    for (int it = 0; it < 200 && t1 - t > 1e-15 * t1; it++) {
+        const double m = 0.5 * (t + t1);
+        gcp_field_psi_RZ(n->f, n->Ra + m * c, n->Za + m * s, ps);
+        if ((ps[0] - n->psia) / n->dpsi >= pn)
+            t1 = m;
+        else
+            t = m;
+    }
+    const double tm = 0.5 * (t + t1);
+    y[0] = n->Ra + tm * c, y[1] = n->Za + tm * s;
+    gcp_field_psi_RZ(n->f, y[0], y[1], ps);
+    const double ge = ps[1] * c + ps[2] * s, gp = -ps[1] * s + ps[2] * c;
+    if (!(ge != 0.0)) return GCP_STEP_FAILED;
+    const double tp = -tm * gp / ge;
+    y[2] = tp * c - tm * s;
+    y[3] = tp * s + tm * c;
+    y[4] = 0.0;
+    return 0;
+}
+
+/* Builds the table of f (axis guess Ra, Za; boundary flux pe).  0, or
+ * GCP_ERR_STATE / GCP_ERR_NOMEM with why filled. */
+static int table_build(const struct gcp_field *f, double Ra, double Za, double pe,
+                       struct numchart **out, char *why, size_t whylen)
+{
+    struct numchart *n = calloc(1, sizeof *n);
+    double *tab = malloc(3 * NRHO * (NETA + 2 * NPAD) * sizeof *tab);
+    if (!n || !tab) {
+        free(n), free(tab);
+        snprintf(why, whylen, "out of memory");
+        return GCP_ERR_NOMEM;
+    }
+    n->f = f;
+    double psia = 0.0;
+    if (find_axis(f, &Ra, &Za, &psia)) {
+        snprintf(why, whylen, "no magnetic axis (an extremum of psi) near (R, Z) = (%g, %g) m",
+                 Ra, Za);
+        free(n), free(tab);
+        return GCP_ERR_STATE;
+    }
+    n->Ra = Ra, n->Za = Za, n->psia = psia, n->dpsi = pe - psia;
+    n->rho_max = sqrt(PSIN_MAX);
+    const double drho = n->rho_max / (NRHO - 1), deta = 2.0 * GCP_PI / NETA;
+    const size_t ne = NETA + 2 * NPAD, nn = (size_t)NRHO * ne;
+    double *TR = tab, *TZ = tab + nn, *TA = tab + 2 * nn;
+    struct trace_ctx tc = {.f = f, .dpsi = n->dpsi, .status = 0};
+    gsl_odeiv2_system sys = {trace_rhs, NULL, 5, &tc};
+    gsl_odeiv2_driver *d =
+        gsl_odeiv2_driver_alloc_y_new(&sys, gsl_odeiv2_step_rk8pd, 1e-3 * drho, 1e-13, 1e-13);
+    const double rho_ref = RHO_REF * n->rho_max;
+    int rc = d ? 0 : GCP_ERR_NOMEM;
+    gsl_error_handler_t *old_handler = gsl_set_error_handler_off();
+    for (int j = 0; j < NETA && !rc; j++) {
+        const double eta = -GCP_PI + j * deta;
+        double y0[5];
+        if ((rc = ref_point(n, rho_ref * rho_ref, eta, y0))) break;
+        for (int dir = -1; dir <= 1 && !rc; dir += 2) {
+            double y[5], rho = rho_ref;
+            memcpy(y, y0, sizeof y);
+            gsl_odeiv2_driver_reset_hstart(d, dir * 1e-3 * drho);
+            /* inward: nodes floor(ref) .. 1 (node 0 is the axis); outward: the rest */
+            const int i0 = dir < 0 ? (int)floor(rho_ref / drho) : (int)floor(rho_ref / drho) + 1;
+            for (int i = i0; dir < 0 ? i >= 1 : i < NRHO; i += dir) {
+                if (gsl_odeiv2_driver_apply(d, &rho, i * drho, y) != GSL_SUCCESS) {
+                    rc = tc.status ? tc.status : GCP_STEP_FAILED;
+                    break;
+                }
+                for (int pk = -1; pk <= 1; pk++) { /* the node and its periodic copies */
+                    const int jj = j + NPAD + pk * NETA;
+                    if (jj < 0 || jj >= (int)ne) continue;
+                    const size_t at = (size_t)i + (size_t)NRHO * (size_t)jj;
+                    TR[at] = y[0], TZ[at] = y[1], TA[at] = y[4];
+                }
+            }
+        }
+    }
+    if (d) gsl_odeiv2_driver_free(d);
+    gsl_set_error_handler(old_handler);
+    if (rc) {
+        snprintf(why, whylen, "tracing the gradient lines of psi failed (status %d): are the "
+                              "flux surfaces closed up to psi_N = %g inside the field's domain?",
+                 rc, PSIN_MAX);
+        free(n), free(tab);
+        return GCP_ERR_STATE;
+    }
+    /* The axis row, and A = 0 there.  A was integrated from the reference
+     * surface; A(0, eta) is the quadratic through nodes 1, 2, 3 extrapolated
+     * to rho = 0 (A = O(rho^2) there).  Its error, smooth in eta, adds a
+     * pure gauge term f(eta) deta: no effect on the motion. */
+    for (size_t jj = 0; jj < ne; jj++) {
+        double *r = TR + NRHO * jj, *z = TZ + NRHO * jj, *a = TA + NRHO * jj;
+        r[0] = Ra, z[0] = Za;
+        const double a0 = 3.0 * a[1] - 3.0 * a[2] + a[3];
+        for (int i = 1; i < NRHO; i++) a[i] -= a0;
+        a[0] = 0.0;
+    }
+    const size_t nsz[2] = {NRHO, ne};
+    const double x0[2] = {0.0, -GCP_PI - NPAD * deta}, hh[2] = {drho, deta};
+    const double *data[3] = {TR, TZ, TA};
+    struct gcp_error err = {0};
+    rc = gcp_spl_build(&n->spl, 2, GCP_SPL_CUBIC, nsz, x0, hh, 3, data, &err);
+    free(tab);
+    if (rc) {
+        snprintf(why, whylen, "flux chart table: %s", err.msg);
+        free(n);
+        return rc;
+    }
+    n->f = NULL;
+    n->refs = 1;
+    *out = n;
+    return 0;
+}
+
+/* ---- one table per equilibrium ----------------------------------------------
+ * Building a table takes ~1 s (NETA x NRHO rk8pd steps of 13 evaluations of
+ * psi and B); a chart is created wherever a method needs one (every
+ * advance of a block, the scene's check).  So the tables are cached, one
+ * entry, keyed by a fingerprint of the field: its type, the flux-surface
+ * data, and psi with its derivatives and B at 8 points about the axis,
+ * compared bit for bit.  Two fields with the same fingerprint are the same
+ * equilibrium (one file loaded twice, or one field freed and another at its
+ * address with the same data): the table depends only on psi and B.  The
+ * table never holds the field (each chart's view does).  The entry and the
+ * reference counts are guarded by a spin lock (C11 atomic_flag), so charts
+ * may be created and destroyed from several threads. */
+#define NFP (3 + 8 * 9)
+
+static atomic_flag cache_lock = ATOMIC_FLAG_INIT;
+static struct numchart *cache_t;
+static const void *cache_type;
+static double cache_fp[NFP];
+
+static void lock(void)
+{
+    while (atomic_flag_test_and_set_explicit(&cache_lock, memory_order_acquire)) {
+    }
+}
+
+static void unlock(void) { atomic_flag_clear_explicit(&cache_lock, memory_order_release); }
+
+static void fingerprint(const struct gcp_field *f, double Ra, double Za, double pe,
+                        double fp[NFP])
+{
+    fp[0] = Ra, fp[1] = Za, fp[2] = pe;
+    const double d = 0.05 * fabs(Ra);
+    for (int j = 0; j < 8; j++) {
+        const double R = Ra + d * cos(j * GCP_PI / 4), Z = Za + d * sin(j * GCP_PI / 4);
+        double *o = fp + 3 + 9 * j;
+        gcp_field_psi_RZ(f, R, Z, o);
+        const double X[3] = {R, 0.0, Z};
+        struct gcp_field_sample s = {.need = GCP_NEED_B};
+        gcp_field_eval(f, 0.0, X, &s);
+        o[6] = s.B[0], o[7] = s.B[1], o[8] = s.B[2];
+    }
+}
+
+static void table_release(struct numchart *t)
+{
+    lock();
+    const int last = --t->refs == 0;
+    unlock();
+    if (last) table_free(t);
+}
+
+static void view_free(void *p)
+{
+    struct numview *v = p;
+    if (!v) return;
+    table_release(v->t);
+    free(v);
+}
+
+int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char *why,
+                       size_t whylen)
+{
+    double Ra, Za, pe, ps[6];
+    if (gcp_field_psi_RZ(f, 0.0, 0.0, ps) == GCP_ERR_STATE) {
+        snprintf(why, whylen, "the field has no flux function psi (a grid needs psi and cubic "
+                              "interpolation)");
+        return GCP_ERR_STATE;
+    }
+    if (gcp_field_flux_surfaces(f, &Ra, &Za, &pe)) {
+        snprintf(why, whylen, "the field does not say where its closed flux surfaces are "
+                              "(magnetic axis and boundary flux)");
+        return GCP_ERR_STATE;
+    }
+    struct numview *v = malloc(sizeof *v);
+    if (!v) {
+        snprintf(why, whylen, "out of memory");
+        return GCP_ERR_NOMEM;
+    }
+    double fp[NFP];
+    fingerprint(f, Ra, Za, pe, fp);
+    struct numchart *t = NULL;
+    lock();
+    if (cache_t && cache_type == (const void *)f->type && memcmp(fp, cache_fp, sizeof fp) == 0) {
+        t = cache_t;
+        t->refs++;
+    }
+    unlock();
+    if (!t) {
+        const int rc = table_build(f, Ra, Za, pe, &t, why, whylen);
+        if (rc) {
+            free(v);
+            return rc;
+        }
+        struct numchart *old = NULL;
+        lock();
+        old = cache_t;
+        cache_t = t;
+        t->refs++; /* the cache's reference */
+        cache_type = (const void *)f->type;
+        memcpy(cache_fp, fp, sizeof fp);
+        unlock();
+        if (old) table_release(old);
+    }
+    v->f = f;
+    v->t = t;
+    c->pc.ctx = v;
+    c->pc.map = num_map;
+    c->pc.locate = num_locate;
+    c->pc.s_max = t->rho_max;
+    c->pc.what = "tabulated orthogonal (rho, eta), rho = sqrt(psi_N)";
+    c->owned = v;
+    c->free_ctx = view_free;
+    return 0;
+}
