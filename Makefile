@@ -132,7 +132,7 @@ check: deps
 	@$(MAKE) --no-print-directory check-built
 
 check-built: build $(UNIT) $(FUZZER)
-	$(UNIT) --jobs=$(JOBS)
+	LSAN_OPTIONS="suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0" $(UNIT) --jobs=$(JOBS)
 	BUILD=$(BUILD) PY=$(PY) GCPUSH=$(CURDIR)/$(BIN) sh tests/cli/run_all.sh
 	@$(MAKE) --no-print-directory fuzz-run FUZZ_SECONDS=20
 
