@@ -27,7 +27,8 @@ extern "C" {
 
 enum gcp_pusher_kind {
     GCP_FULL_ORBIT = 0,
-    GCP_GUIDING_CENTRE = 1
+    GCP_GUIDING_CENTRE = 1,
+    GCP_HYBRID = 2           /* switches between the two per particle (hybrid.h) */
 };
 
 struct gcp_block;
@@ -42,6 +43,7 @@ struct gcp_push_opts {
     double tolerance;        /* [1] adaptive methods: relative error per step (0: method default) */
     double adiabaticity_max; /* [1] guiding centre: rho/L_B (or rho/R_c) above which a particle is
                                 NONADIABATIC; 0: no check */
+    void *state;             /* method state: the hybrid's struct gcp_hybrid (hybrid.h); else NULL */
 };
 
 /* Advances the live lanes of a block (see gcp_block_advance_fo for the

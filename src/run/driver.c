@@ -12,9 +12,11 @@
 #include <time.h>
 
 #include "gcpush/gc.h"
+#include "gcpush/hybrid.h"
 #include "gcpush/invariants.h"
 #include "gcpush/io.h"
 #include "gcpush/run.h"
+#include "run_priv.h"
 
 int64_t gcp_scene_chunk_count(const struct gcp_scene *s)
 {
@@ -62,6 +64,7 @@ struct traj_ctx {
     struct gcp_results *res;
     int64_t row0;   /* first result row of this chunk */
     int64_t sample; /* next sample index */
+    const struct gcp_hybrid *hy; /* method = hybrid: the mode of each lane; else NULL */
 };
 
 /* Records one trajectory sample of every live lane. */
@@ -76,7 +79,13 @@ static void record(const struct gcp_block *b, double t, void *vctx)
         const size_t j = (size_t)(row * S + k);
         r->traj_t[j] = t;
         r->traj_x[3 * j] = b->x[i], r->traj_x[3 * j + 1] = b->y[i], r->traj_x[3 * j + 2] = b->z[i];
-        if (r->gc) {
+        if (c->hy) { /* the guiding centre's p_par or the particle's u, and which */
+            const int mode = gcp_hybrid_mode(c->hy, b->index[i]);
+            r->traj_mode[j] = (int8_t)mode;
+            if (mode == GCP_MODE_GC) r->traj_ppar[j] = b->ppar[i];
+            else r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i],
+                 r->traj_u[3 * j + 2] = b->uz[i];
+        } else if (r->gc) {
             r->traj_ppar[j] = b->ppar[i];
         } else {
             r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i];
@@ -119,6 +128,12 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
         }
     }
+    struct gcp_hybrid *hy = NULL;
+    if (s->hybrid && gcp_hybrid_create(&hy, GCP_CHUNK, &s->hybrid_opts)) {
+        gcp_block_free(&b);
+        gcp_observer_free(obs);
+        return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory (hybrid)");
+    }
     const double t0 = 0.0;
     const int64_t S = res->S;
     const int gc = s->pusher->kind == GCP_GUIDING_CENTRE;
@@ -130,6 +145,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (gcp_results_reserve(res, count)) {
             gcp_block_free(&b);
             gcp_observer_free(obs);
+            gcp_hybrid_free(hy);
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for results");
         }
         const int64_t row0 = res->n;
@@ -144,16 +160,18 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             memcpy(&res->u0[3 * row], u, sizeof u);
             b.x[i] = x[0], b.y[i] = x[1], b.z[i] = x[2];
             b.ux[i] = u[0], b.uy[i] = u[1], b.uz[i] = u[2];
-            if (gc) {
+            if (gc || hy) {
                 const struct gcp_species *sp = &s->pops[pop].species;
                 double X[3], ppar, mu;
                 /* a start the transformation cannot make (B = 0, outside a grid) is
                  * left non-finite: the block's start-up check gives it its status */
                 if (gcp_gc_from_fo(s->field, t0, sp->charge, sp->mass, x, u, X, &ppar, &mu))
                     X[0] = X[1] = X[2] = ppar = mu = NAN;
-                b.x[i] = X[0], b.y[i] = X[1], b.z[i] = X[2];
-                b.ppar[i] = ppar;
-                b.mu[i] = mu;
+                if (gc) { /* hybrid: gcp_hybrid_begin makes the same transformation */
+                    b.x[i] = X[0], b.y[i] = X[1], b.z[i] = X[2];
+                    b.ppar[i] = ppar;
+                    b.mu[i] = mu;
+                }
                 memcpy(&res->X0[3 * row], X, sizeof X);
                 res->ppar0[row] = ppar;
                 res->mu0[row] = mu;
@@ -176,17 +194,19 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             for (int64_t j = row0 * S; j < (row0 + count) * S; j++) {
                 res->traj_t[j] = NAN;
                 for (int d = 0; d < 3; d++) res->traj_x[3 * j + d] = NAN;
-                if (gc) res->traj_ppar[j] = NAN;
-                else for (int d = 0; d < 3; d++) res->traj_u[3 * j + d] = NAN;
+                if (gc || hy) res->traj_ppar[j] = NAN;
+                if (!gc) for (int d = 0; d < 3; d++) res->traj_u[3 * j + d] = NAN;
+                if (hy) res->traj_mode[j] = -1;
             }
             for (int64_t i = 0; i < count; i++) res->traj_count[row0 + i] = 0;
         }
-        struct traj_ctx tc = {res, row0, 0};
+        struct traj_ctx tc = {res, row0, 0, hy};
         struct gcp_sampler sampler = {s->pops[pop].trajectory_every, record, &tc};
         struct multi_ctx mc = {obs, S ? s->pops[pop].trajectory_every : 0, 0, &tc};
         if (obs) sampler = (struct gcp_sampler){1, multi_sample, &mc};
         const double c0 = cpu_now();
         gcp_block_start(&b, s->field, t0);
+        if (hy) gcp_hybrid_begin(hy, &b, s->field, t0, first);
         if (S) record(&b, t0, &tc);
         const int64_t events_before = res->ev.n;
         if (obs) gcp_observer_begin(obs, &b, t0, first, &res->ev);
@@ -194,7 +214,8 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
                                      .dt = s->pops[pop].dt,
                                      .nsteps = s->pops[pop].nsteps,
                                      .tolerance = s->tolerance,
-                                     .adiabaticity_max = gc ? s->adiabaticity_max : 0.0};
+                                     .adiabaticity_max = gc ? s->adiabaticity_max : 0.0,
+                                     .state = hy};
         /* The push in slices, so that a stop request (SIGTERM) is answered
          * within a slice, not a whole chunk; a slice is a whole number of
          * trajectory intervals, so samples fall where they would unsliced. */
@@ -218,7 +239,13 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (obs && gcp_observer_end(obs, &b)) {
             gcp_block_free(&b);
             gcp_observer_free(obs);
+            gcp_hybrid_free(hy);
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for events");
+        }
+        if (hy && gcp_hybrid_store(s, hy, &b, res, row0)) {
+            gcp_block_free(&b);
+            gcp_hybrid_free(hy);
+            return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for switch events");
         }
         const double spent = cpu_now() - c0;
         res->rank_cpu += spent;
@@ -227,8 +254,10 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         for (size_t i = 0; i < b.n; i++) {
             const int64_t row = row0 + (int64_t)b.index[i];
             res->t[row] = b.t[i];
-            res->x[3 * row] = b.x[i], res->x[3 * row + 1] = b.y[i], res->x[3 * row + 2] = b.z[i];
-            if (gc) {
+            if (!hy) res->x[3 * row] = b.x[i], res->x[3 * row + 1] = b.y[i], res->x[3 * row + 2] = b.z[i];
+            if (hy) {
+                /* x, u, X, ppar, mu: gcp_hybrid_store */
+            } else if (gc) {
                 res->ppar[row] = b.ppar[i];
                 res->mu[row] = b.mu[i];
             } else {
@@ -245,5 +274,6 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
     }
     gcp_block_free(&b);
     gcp_observer_free(obs);
+    gcp_hybrid_free(hy);
     return 0;
 }

@@ -389,20 +389,24 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     s = gcp_run_file_section(rf, "integrator");
     char method[32];
     if ((rc = gcp_section_string(s, "method", 1, method, sizeof method, err)) < 0) return rc;
-    if (!(sc->pusher = gcp_pusher_lookup(method)))
+    if (strcmp(method, "hybrid") == 0) {
+        if ((rc = gcp_scene_hybrid_keys(sc, s, err)) < 0) return rc;
+    } else if (!(sc->pusher = gcp_pusher_lookup(method)))
         return gcp_section_error(s, "method", err, GCP_ERR_UNKNOWN,
                                  "unknown method '%s' (boris, boris-zu, vay, higuera-cary, "
-                                 "gc-rk4, gc-rk45, gc-rk8pd, gc-vi)",
+                                 "gc-rk4, gc-rk45, gc-rk8pd, gc-vi, hybrid)",
                                  method);
     if ((rc = gcp_section_time(s, "dt", 1, &sc->dt_given, &sc->dt_period, err)) < 0) return rc;
     if ((rc = positive(s, "dt", sc->dt_given, err))) return rc;
     /* adaptive methods: dt is the first trial step, tolerance the error per step */
     if ((rc = gcp_section_quantity(s, "tolerance", GCP_Q_NUMBER, 0, &sc->tolerance, err)) < 0)
         return rc;
-    if (rc == 1 && !sc->pusher->adaptive)
+    /* hybrid: the tolerance is its guiding-centre method's */
+    const struct gcp_pusher_type *stepper = sc->hybrid ? sc->hybrid_opts.gc : sc->pusher;
+    if (rc == 1 && !stepper->adaptive)
         return gcp_section_error(s, "tolerance", err, GCP_ERR_VALUE,
                                  "method '%s' has a fixed step: tolerance applies only to "
-                                 "adaptive methods (gc-rk45, gc-rk8pd)", method);
+                                 "adaptive methods (gc-rk45, gc-rk8pd)", stepper->name);
     if (rc == 1 && !(sc->tolerance > 0 && sc->tolerance < 1))
         return gcp_section_error(s, "tolerance", err, GCP_ERR_VALUE, "must lie in (0, 1)");
     /* Guiding-centre validity: first-order guiding-centre theory has O(eps)
@@ -416,11 +420,17 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
         return rc;
     if (rc == 1 && sc->pusher->kind != GCP_GUIDING_CENTRE)
         return gcp_section_error(s, "adiabaticity", err, GCP_ERR_VALUE,
-                                 "applies only to guiding-centre methods (gc-*)");
+                                 sc->hybrid ? "method = hybrid switches at switch_to_fo and "
+                                              "switch_to_gc instead"
+                                            : "applies only to guiding-centre methods (gc-*)");
     if (rc == 1 && !(sc->adiabaticity_max >= 0))
         return gcp_section_error(s, "adiabaticity", err, GCP_ERR_VALUE,
                                  "must be >= 0 (0: no check)");
-    if ((rc = gcp_section_check_unused(s, "method dt tolerance adiabaticity", err))) return rc;
+    if ((rc = gcp_section_check_unused(s, sc->hybrid ? "method dt tolerance gc fo switch_to_fo "
+                                                       "switch_to_gc fo_dt"
+                                                     : "method dt tolerance adiabaticity",
+                                       err)))
+        return rc;
 
     s = gcp_run_file_section(rf, "diagnostics");
     if (s) {
@@ -430,6 +440,12 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
             (rc = parse_words(s, "events", evt_names, &sc->events, err)) < 0)
             return rc;
         if ((rc = gcp_section_check_unused(s, "invariants events", err))) return rc;
+        if (sc->hybrid && (sc->invariants || sc->events))
+            return gcp_section_error(s, sc->invariants ? "invariants" : "events", err,
+                                     GCP_ERR_VALUE,
+                                     "method = hybrid does not track invariants or events yet "
+                                     "(the observer across switches is future work): leave "
+                                     "[diagnostics] out");
     }
 
     s = gcp_run_file_section(rf, "output");
