@@ -80,10 +80,21 @@ struct gcp_hybrid_lane_info {
 
 struct gcp_hybrid;
 
-/* Pusher type of `method = hybrid`: kind GCP_HYBRID; its advance takes the
- * state from opts->state (a struct gcp_hybrid *; NULL: every lane
- * STEP_FAILED).  Not in gcp_pusher_types(): it is no stand-alone method. */
+/* Pusher type of `method = hybrid` (name, doc, kind GCP_HYBRID), for the
+ * scene and the output's attributes.  Its .advance has no state to work
+ * with and stops every lane STEP_FAILED: push with gcp_hybrid_advance().
+ * Not in gcp_pusher_types(): it is no stand-alone method. */
 extern const struct gcp_pusher_type gcp_pusher_hybrid;
+
+/* Advances the live lanes of b (started with gcp_hybrid_begin) by
+ * o->nsteps GC steps of o->dt from o->t0 (o->tolerance: the GC method's,
+ * if adaptive; o->adiabaticity_max is ignored: the thresholds are h's).
+ * The sampler (may be NULL) is called every s->every steps with every live
+ * lane at that time, GC lanes holding X, p_par, mu and FO lanes x, u (see
+ * gcp_hybrid_mode).  Statuses, retirement and the return value as
+ * gcp_block_advance_fo. */
+size_t gcp_hybrid_advance(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_push_opts *o, const struct gcp_sampler *s);
 
 /* State for blocks of up to nlanes lanes; 0 or GCP_ERR_NOMEM / GCP_ERR_VALUE
  * (options out of range). */

@@ -43,7 +43,6 @@ struct gcp_push_opts {
     double tolerance;        /* [1] adaptive methods: relative error per step (0: method default) */
     double adiabaticity_max; /* [1] guiding centre: rho/L_B (or rho/R_c) above which a particle is
                                 NONADIABATIC; 0: no check */
-    void *state;             /* method state: the hybrid's struct gcp_hybrid (hybrid.h); else NULL */
 };
 
 /* Advances the live lanes of a block (see gcp_block_advance_fo for the

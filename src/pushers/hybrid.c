@@ -500,12 +500,9 @@ static size_t retire(struct gcp_block *b, size_t n)
     return n;
 }
 
-static size_t hybrid_advance(struct gcp_block *b, const struct gcp_field *f,
-                             const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
-                             const struct gcp_sampler *smp)
+size_t gcp_hybrid_advance(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_push_opts *o, const struct gcp_sampler *smp)
 {
-    (void)p;
-    struct gcp_hybrid *h = o->state;
     size_t n = b->n_active;
     if (!h || !(o->dt > 0.0) || !isfinite(o->dt) || o->nsteps < 0 || b->n > h->nlanes) {
         for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED, b->t[i] = o->t0;
@@ -544,6 +541,15 @@ static size_t hybrid_advance(struct gcp_block *b, const struct gcp_field *f,
     return n;
 }
 
+/* The registry entry cannot push: there is no state to push with. */
+static size_t hybrid_stateless(struct gcp_block *b, const struct gcp_field *f,
+                               const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                               const struct gcp_sampler *s)
+{
+    (void)p, (void)s;
+    return gcp_hybrid_advance(NULL, b, f, o, NULL);
+}
+
 const struct gcp_pusher_type gcp_pusher_hybrid = {
     .name = "hybrid",
     .doc = "guiding centre where adiabatic, full orbit where not, switched per particle "
@@ -551,7 +557,7 @@ const struct gcp_pusher_type gcp_pusher_hybrid = {
     .order = 2,
     .kind = GCP_HYBRID,
     .kick = NULL,
-    .advance = hybrid_advance,
+    .advance = hybrid_stateless,
 };
 
 int gcp_hybrid_final(const struct gcp_hybrid *h, const struct gcp_block *b,

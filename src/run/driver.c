@@ -214,8 +214,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
                                      .dt = s->pops[pop].dt,
                                      .nsteps = s->pops[pop].nsteps,
                                      .tolerance = s->tolerance,
-                                     .adiabaticity_max = gc ? s->adiabaticity_max : 0.0,
-                                     .state = hy};
+                                     .adiabaticity_max = gc ? s->adiabaticity_max : 0.0};
         /* The push in slices, so that a stop request (SIGTERM) is answered
          * within a slice, not a whole chunk; a slice is a whole number of
          * trajectory intervals, so samples fall where they would unsliced. */
@@ -229,7 +228,8 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             }
             opts.t0 = t0 + (double)done * s->pops[pop].dt;
             opts.nsteps = s->pops[pop].nsteps - done < slice ? s->pops[pop].nsteps - done : slice;
-            s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
+            if (hy) gcp_hybrid_advance(hy, &b, s->field, &opts, S ? &sampler : NULL);
+            else s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
             done += opts.nsteps;
         }
         if (stopped) { /* drop the chunk: its rows and events were never complete */
