@@ -198,6 +198,79 @@ static size_t scatter(struct gcp_block *b, const struct gcp_block *s, size_t j)
 
 /* ---- switches ------------------------------------------------------------ */
 
+static void window_open(struct hlane *L, const struct gcp_field *f, double t, const double x[3],
+                        const double X[3], double ppar, double mu);
+static void window_sample(struct hlane *L, double t, const double x[3], const double X[3],
+                          double ppar, double mu);
+
+struct trial_ctx {
+    const struct gcp_field *f;
+    double q, m;
+    struct hlane w;
+};
+
+static int trial_step(double t, const double x[3], const double u[3], void *vctx)
+{
+    struct trial_ctx *c = vctx;
+    double X[3], ppar, mu;
+    if (gcp_gc_from_fo(c->f, t, c->q, c->m, x, u, X, &ppar, &mu)) return 1;
+    window_sample(&c->w, t, x, X, ppar, mu);
+    return c->w.K >= 1;
+}
+
+/* GC -> FO, gyro-consistent.  The particle gcp_fo_from_gc makes at phase
+ * phi has the guiding centre's X, p_par, mu as its instantaneous first-order
+ * guiding centre, but averaged over its gyration -- what the way back and
+ * the observer see -- it is off by O(eps), with the sign of the gyrophase
+ * (the first-order corrections that transformation leaves out).  One trial
+ * gyration with the FO method measures the offset against the guiding
+ * centre pushed to the same mid-time, and the particle is made again from
+ * the state corrected by it (residual O(eps^2)), its |p| then set to the
+ * guiding centre's energy.  Returns 0 or a status; on a failed trial the
+ * uncorrected particle stands. */
+static int fo_start(const struct gcp_hybrid *h, const struct gcp_field *f, double t, double q,
+                    double m, const double X[3], double ppar, double mu, double phase, double x[3],
+                    double u[3])
+{
+    int st = gcp_fo_from_gc(f, t, q, m, X, ppar, mu, phase, x, u);
+    if (st) return st;
+    struct trial_ctx c = {.f = f, .q = q, .m = m};
+    double X0[3], p0, mu0;
+    if (gcp_gc_from_fo(f, t, q, m, x, u, X0, &p0, &mu0)) return 0;
+    window_open(&c.w, f, t, x, X0, p0, mu0);
+    struct gcp_field_sample s = {.need = GCP_NEED_B};
+    if (gcp_field_eval(f, t, X, &s)) return 0;
+    const double B = sqrt(dot3(s.B, s.B));
+    const double Tg = 2.0 * GCP_PI * gcp_gamma_of_u(u[0], u[1], u[2]) * m / (fabs(q) * B);
+    const double hs = h->o.fo_dt * Tg;
+    double tt = t, xx[3] = {x[0], x[1], x[2]}, uu[3] = {u[0], u[1], u[2]};
+    /* up to 1.5 local gyro-periods: one whole gyration where B changes by a third */
+    gcp_orbit_push(f, h->o.fo, q, m, &tt, xx, uu, hs, (int64_t)ceil(1.5 / h->o.fo_dt), trial_step,
+                   &c);
+    if (c.w.K < 1 || !(c.w.tK > t)) return 0;
+    const double w = c.w.tK - t;
+    double Xr[3] = {X[0], X[1], X[2]}, pr = ppar, tr = t;
+    const struct gcp_push_opts po = {.dt = 0.5 * w, .nsteps = 1};
+    if (gcp_gc_push(f, h->o.gc, q, m, &po, &tr, Xr, &pr, mu, NULL, NULL)) return 0;
+    double Xc[3];
+    for (int d = 0; d < 3; d++) Xc[d] = X[d] + (Xr[d] - c.w.IK[d] / w);
+    const double pc = ppar + (pr - c.w.IK[3] / w), muc = mu + (mu - c.w.IK[4] / w);
+    double xc[3], uc[3];
+    if (!(muc > 0.0) || gcp_fo_from_gc(f, t, q, m, Xc, pc, muc, phase, xc, uc)) return 0;
+    /* the energy of the guiding centre: gamma m c^2 + q phi(X) */
+    double A[3], phX = 0.0, phx = 0.0;
+    if (f->has_E && (gcp_gc_potential(f, t, X, A, NULL, &phX) ||
+                     gcp_gc_potential(f, t, xc, A, NULL, &phx)))
+        phX = phx = 0.0;
+    const double mc = m * GCP_C_LIGHT;
+    const double gam = gcp_gc_gamma(ppar, mu, B, m) + q * (phX - phx) / (mc * GCP_C_LIGHT);
+    const double ut2 = (gam * gam - 1.0) * GCP_C_LIGHT * GCP_C_LIGHT, uc2 = dot3(uc, uc);
+    if (!(ut2 > 0.0 && uc2 > 0.0)) return 0;
+    const double k = sqrt(ut2 / uc2);
+    for (int d = 0; d < 3; d++) x[d] = xc[d], u[d] = uc[d] * k;
+    return 0;
+}
+
 /* GC -> FO at time t from the lane's GC state. */
 static void to_fo(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_field *f, size_t i,
                   struct hlane *L, double t)
@@ -206,7 +279,7 @@ static void to_fo(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_fi
     double eps = INFINITY, x[3], u[3];
     gcp_gc_adiabaticity(f, t, b->q, b->m, X, b->ppar[i], b->mu[i], &eps);
     const double phase = gcp_hybrid_phase(h->o.seed, L->id, L->nsw);
-    const int st = gcp_fo_from_gc(f, t, b->q, b->m, X, b->ppar[i], b->mu[i], phase, x, u);
+    const int st = fo_start(h, f, t, b->q, b->m, X, b->ppar[i], b->mu[i], phase, x, u);
     b->t[i] = t;
     if (st) { /* no particle for this guiding centre (e.g. the iteration diverged) */
         b->status[i] = st;
