@@ -225,8 +225,8 @@ static int trial_step(double t, const double x[3], const double u[3], void *vctx
  * (the first-order corrections that transformation leaves out).  One trial
  * gyration with the FO method measures the offset against the guiding
  * centre pushed to the same mid-time, and the particle is made again from
- * the state corrected by it (residual O(eps^2)), its |p| then set to the
- * guiding centre's energy.  Returns 0 or a status; on a failed trial the
+ * the state corrected by it (residual O(eps^2)), with mu set so that its
+ * energy is the guiding centre's.  Returns 0 or a status; on a failed trial the
  * uncorrected particle stands. */
 static int fo_start(const struct gcp_hybrid *h, const struct gcp_field *f, double t, double q,
                     double m, const double X[3], double ppar, double mu, double phase, double x[3],
@@ -254,20 +254,22 @@ static int fo_start(const struct gcp_hybrid *h, const struct gcp_field *f, doubl
     if (gcp_gc_push(f, h->o.gc, q, m, &po, &tr, Xr, &pr, mu, NULL, NULL)) return 0;
     double Xc[3];
     for (int d = 0; d < 3; d++) Xc[d] = X[d] + (Xr[d] - c.w.IK[d] / w);
-    const double pc = ppar + (pr - c.w.IK[3] / w), muc = mu + (mu - c.w.IK[4] / w);
+    const double pc = ppar + (pr - c.w.IK[3] / w);
+    /* the energy of the guiding centre, gamma m c^2 + q phi(X), at the
+     * corrected centre Xc: all of the difference goes into mu, the
+     * perpendicular energy (why: window_close) */
+    double A[3], phX = 0.0, phc = 0.0;
+    if (f->has_E && (gcp_gc_potential(f, t, X, A, NULL, &phX) ||
+                     gcp_gc_potential(f, t, Xc, A, NULL, &phc)))
+        phX = phc = 0.0;
+    struct gcp_field_sample sc = {.need = GCP_NEED_B};
+    if (gcp_field_eval(f, t, Xc, &sc)) return 0;
+    const double mc = m * GCP_C_LIGHT;
+    const double gam = gcp_gc_gamma(ppar, mu, B, m) + q * (phX - phc) / (mc * GCP_C_LIGHT);
+    const double muc = 0.5 * ((gam * gam - 1.0) * mc * mc - pc * pc) / (m * sqrt(dot3(sc.B, sc.B)));
     double xc[3], uc[3];
     if (!(muc > 0.0) || gcp_fo_from_gc(f, t, q, m, Xc, pc, muc, phase, xc, uc)) return 0;
-    /* the energy of the guiding centre: gamma m c^2 + q phi(X) */
-    double A[3], phX = 0.0, phx = 0.0;
-    if (f->has_E && (gcp_gc_potential(f, t, X, A, NULL, &phX) ||
-                     gcp_gc_potential(f, t, xc, A, NULL, &phx)))
-        phX = phx = 0.0;
-    const double mc = m * GCP_C_LIGHT;
-    const double gam = gcp_gc_gamma(ppar, mu, B, m) + q * (phX - phx) / (mc * GCP_C_LIGHT);
-    const double ut2 = (gam * gam - 1.0) * GCP_C_LIGHT * GCP_C_LIGHT, uc2 = dot3(uc, uc);
-    if (!(ut2 > 0.0 && uc2 > 0.0)) return 0;
-    const double k = sqrt(ut2 / uc2);
-    for (int d = 0; d < 3; d++) x[d] = xc[d], u[d] = uc[d] * k;
+    for (int d = 0; d < 3; d++) x[d] = xc[d], u[d] = uc[d];
     return 0;
 }
 
@@ -408,8 +410,13 @@ static int window_close(struct gcp_hybrid *h, struct gcp_block *b, const struct 
         const double pc2 = ppar * ppar + 2.0 * b->m * mu * sqrt(dot3(s.B, s.B));
         if (!(pt2 > 0.0 && pc2 > 0.0)) return 0;
         dp2 = pt2 / pc2 - 1.0;
-        ppar *= sqrt(pt2 / pc2);
-        mu *= pt2 / pc2;
+        /* p^2 = <p_par0^2> + <p_perp0^2> at every sample, so the average falls
+         * short of p^2 by var(p_par0): the gyrophase oscillation of p_par0,
+         * which is gyration seen in a tilted frame.  That share belongs to the
+         * perpendicular energy: mu takes it all (scaling p_par too would bleed
+         * cos^2(pitch) dp2 of mu per return, a secular pitch-angle drift). */
+        mu = 0.5 * (pt2 - ppar * ppar) / (b->m * sqrt(dot3(s.B, s.B)));
+        if (!(mu > 0.0)) return 0;
     }
     double eps = INFINITY;
     if (gcp_gc_adiabaticity(f, t, b->q, b->m, X, ppar, mu, &eps) || !(eps < h->o.to_gc)) return 0;
