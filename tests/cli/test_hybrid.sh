@@ -1,7 +1,8 @@
 #!/bin/sh
 # method = hybrid (issue 14): bad keys name file:line:key before anything
 # runs; the output layout (/hybrid, both final forms, trajectory modes) holds
-# together; the same file on 1 and 3 ranks.
+# together; the same file on 1 and 3 ranks and through a checkpoint and
+# --restart.
 set -u
 . "$(dirname "$0")/lib.sh"
 cd "$TMP"
@@ -122,5 +123,19 @@ sed "s/OUT/h3.h5/" hy.run > h3.run
 $MPIRUN -np 3 "$GCPUSH" --quiet h3.run || die "hybrid run on 3 ranks failed"
 for g in /particles /trajectories /hybrid; do
     h5diff h1.h5 h3.h5 $g $g > diff.txt 2>&1 || die "1 and 3 ranks differ in $g: $(head -5 diff.txt)"
+done
+# ---- SIGTERM halfway, then --restart on 2 ranks: the uninterrupted file ----
+sed "s/OUT/ref.h5/; s/^count    = 130/count    = 640/; s/^duration = 5 s/duration = 3 s/; s/^\[output\]/[output]\ncheckpoint = 0.1 s/" hy.run > ref.run
+sed "s/ref.h5/long.h5/" ref.run > long.run
+"$GCPUSH" --quiet ref.run || die "reference run failed"
+# stop it once it has checkpointed (it is pushing then, its handler set)
+"$GCPUSH" --quiet long.run 2> term.txt & pid=$!
+i=0
+while ! ls long.h5.ckpt.* > /dev/null 2>&1 && [ $i -lt 600 ]; do sleep 0.05; i=$((i + 1)); done
+kill -TERM $pid; wait $pid; rc=$?
+[ $rc = 3 ] || die "SIGTERM: exit status $rc, not 3 ($(cat term.txt))"
+$MPIRUN -np 2 "$GCPUSH" --quiet --restart long.h5 || die "restart failed"
+for g in /particles /trajectories /hybrid; do
+    h5diff ref.h5 long.h5 $g $g > diff.txt 2>&1 || die "restart differs in $g: $(head -5 diff.txt)"
 done
 echo "ok test_hybrid"
