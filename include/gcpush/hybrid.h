@@ -115,6 +115,9 @@ void gcp_hybrid_info(const struct gcp_hybrid *h, size_t index, struct gcp_hybrid
 
 /* The switches of this block since gcp_hybrid_begin (in the order made). */
 size_t gcp_hybrid_switches(const struct gcp_hybrid *h, const struct gcp_hybrid_switch **sw);
+/* 0, or GCP_ERR_NOMEM when a switch record could not be stored (the push
+ * itself went on). */
+int gcp_hybrid_status(const struct gcp_hybrid *h);
 
 /* Both representations of lane i of b at its time b->t[i]: a GC lane's
  * x, u from gcp_fo_from_gc with the gyrophase its next switch would draw; an

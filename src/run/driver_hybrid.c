@@ -27,6 +27,7 @@ int gcp_hybrid_store(const struct gcp_scene *s, const struct gcp_hybrid *hy,
         res->hy_t_gc[row] = info.t_gc;
         res->hy_t_fo[row] = info.t_fo;
     }
+    if (gcp_hybrid_status(hy)) return GCP_ERR_NOMEM;
     const struct gcp_hybrid_switch *sw;
     const size_t n = gcp_hybrid_switches(hy, &sw);
     for (size_t k = 0; k < n; k++) {
