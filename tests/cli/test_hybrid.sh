@@ -5,6 +5,7 @@
 # --restart.
 set -u
 . "$(dirname "$0")/lib.sh"
+ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$TMP"
 MPIRUN="mpirun --oversubscribe --bind-to none"
 
@@ -117,6 +118,11 @@ for i in range(N):
 print("switching particles: %d of %d, switches %d, full-orbit share %.3f"
       % (np.count_nonzero(sw), N, sw.sum(), tfo.sum() / (tfo + tgc).sum()))
 PY
+
+# the orbit plot marks the full-orbit stretches (analysis/gcpush_h5.py reads hybrid files)
+"$PY" "$ROOT/analysis/plot_orbits.py" h1.h5 -o h1.png --max 12 > plot.txt 2>&1 ||
+    die "plot_orbits.py on a hybrid file: $(tail -3 plot.txt)"
+[ -s h1.png ] || die "plot_orbits.py wrote no picture"
 
 # ---- 1 and 3 ranks: the same data ----
 sed "s/OUT/h3.h5/" hy.run > h3.run
