@@ -2,8 +2,9 @@
  * L = 4-6, where guiding-centre theory is at or past its edge (eps = 0.1 ..
  * 0.5 at the equator).  The hybrid pushes them as full orbits where eps >
  * 0.1 and as guiding centres where their mirror points reach eps < 0.05; its
- * bounce and drift periods and its losses must agree with Boris runs of the
- * same particles within the statistical error of the ensemble. */
+ * bounce and drift periods, equatorial pitch angles after 10-40 bounces and
+ * losses must agree with Boris runs of the same particles within the
+ * statistical error of the ensemble. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -24,9 +25,19 @@ struct crossings {
     double phi_unw, phi_last;   /* unwrapped azimuth */
     int n;
     double t1, phi1, tn, phin;  /* first and last crossing */
+    double alpha;               /* [rad] equatorial pitch angle at the last crossing */
 };
 
-static void crossing_sample(struct crossings *c, double t, const double X[3])
+/* Pitch angle at guiding centre X: sin^2 a = 2 m mu B / p^2. */
+static double pitch_at(const struct gcp_field *f, double t, const double X[3], double ppar, double mu)
+{
+    struct gcp_field_sample s = {.need = GCP_NEED_B};
+    gcp_field_eval(f, t, X, &s);
+    const double w = 2.0 * GCP_M_PROTON * mu * sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
+    return asin(sqrt(w / (ppar * ppar + w)));
+}
+
+static void crossing_sample(struct crossings *c, double t, const double X[3], double ppar, double mu)
 {
     double phi = atan2(X[1], X[0]);
     if (c->have) {
@@ -42,6 +53,7 @@ static void crossing_sample(struct crossings *c, double t, const double X[3])
         const double tc = c->tp + fr * (t - c->tp), pc = c->php + fr * (c->phi_unw - c->php);
         if (c->n++ == 0) c->t1 = tc, c->phi1 = pc;
         c->tn = tc, c->phin = pc;
+        c->alpha = pitch_at(c->f, t, X, ppar, mu); /* the sample just past the equator */
     }
     c->have = 1;
     c->tp = t, c->zp = X[2], c->php = c->phi_unw;
@@ -52,7 +64,7 @@ static int fo_cb(double t, const double x[3], const double u[3], void *vctx)
     struct crossings *c = vctx;
     double X[3], pp, mu;
     if (gcp_gc_from_fo(c->f, t, GCP_E_CHARGE, GCP_M_PROTON, x, u, X, &pp, &mu)) return 1;
-    crossing_sample(c, t, X);
+    crossing_sample(c, t, X, pp, mu);
     return 0;
 }
 
@@ -60,12 +72,12 @@ static void hy_cb(const struct gcp_block *b, double t, void *vctx)
 {
     struct crossings *c = vctx;
     if (b->n_active == 0 || !c->h) return;
-    double X[3] = {b->x[0], b->y[0], b->z[0]}, pp, mu;
+    double X[3] = {b->x[0], b->y[0], b->z[0]}, pp = b->ppar[0], mu = b->mu[0];
     if (gcp_hybrid_mode(c->h, b->index[0]) == GCP_MODE_FO) {
         const double x[3] = {b->x[0], b->y[0], b->z[0]}, u[3] = {b->ux[0], b->uy[0], b->uz[0]};
         if (gcp_gc_from_fo(c->f, t, b->q, b->m, x, u, X, &pp, &mu)) return;
     }
-    crossing_sample(c, t, X);
+    crossing_sample(c, t, X, pp, mu);
 }
 
 /* Bounce period = mean interval between upward crossings; drift period
@@ -96,7 +108,7 @@ Test(hybrid_periods, protons_agree_with_full_orbits)
                                                   15 * GCP_EARTH_RADIUS);
     const struct gcp_hybrid_opts ho = {&gcp_pusher_gc_rk4, &gcp_pusher_boris,
                                        0.1, 0.05, 0.05, 42};
-    double db[NP], dd[NP];
+    double db[NP], dd[NP], da[NP];
     int n = 0, switched = 0, lost_f = 0, lost_h = 0;
     double fo_time = 0.0, all_time = 0.0;
     for (int k = 0; k < NP; k++) {
@@ -145,14 +157,16 @@ Test(hybrid_periods, protons_agree_with_full_orbits)
         if (stf != GCP_ALIVE || sth != GCP_ALIVE || !isfinite(Tbf + Tbh + Tdf + Tdh)) continue;
         db[n] = Tbh / Tbf - 1.0;
         dd[n] = Tdh / Tdf - 1.0;
+        da[n] = ch.alpha - cf.alpha;
         n++;
     }
     /* mean and standard error of the per-particle differences */
-    double mb = 0.0, md = 0.0, sb = 0.0, sd = 0.0;
-    for (int k = 0; k < n; k++) mb += db[k] / n, md += dd[k] / n;
+    double mb = 0.0, md = 0.0, ma = 0.0, sb = 0.0, sd = 0.0, sa = 0.0;
+    for (int k = 0; k < n; k++) mb += db[k] / n, md += dd[k] / n, ma += da[k] / n;
     for (int k = 0; k < n; k++)
-        sb += (db[k] - mb) * (db[k] - mb) / (n - 1), sd += (dd[k] - md) * (dd[k] - md) / (n - 1);
-    const double seb = sqrt(sb / n), sed = sqrt(sd / n);
+        sb += (db[k] - mb) * (db[k] - mb) / (n - 1), sd += (dd[k] - md) * (dd[k] - md) / (n - 1),
+        sa += (da[k] - ma) * (da[k] - ma) / (n - 1);
+    const double seb = sqrt(sb / n), sed = sqrt(sd / n), sea = sqrt(sa / n);
     /* The hybrid must really switch in this ensemble (those whose mirror
      * points reach eps < switch_to_gc); most of these protons are past the
      * guiding-centre edge everywhere and stay full orbits. */
@@ -170,12 +184,18 @@ Test(hybrid_periods, protons_agree_with_full_orbits)
     cr_assert_geq(n, NP - 6);
     cr_assert_leq(fabs(mb), 3.0 * seb + 0.01, "bounce periods: mean difference %.3g +- %.3g", mb, seb);
     cr_assert_leq(fabs(md), 3.0 * sed + 0.01, "drift periods: mean difference %.3g +- %.3g", md, sed);
+    /* the equatorial pitch angle after 10-40 bounces (sampled within 0.01 rad
+     * of latitude of the equator: B/B_eq - 1 < 5e-4, a bias far below the
+     * scatter) within 3 standard errors */
+    cr_assert_leq(fabs(ma), 3.0 * sea, "pitch after N bounces: mean difference %.3g +- %.3g rad", ma, sea);
     cr_assert_leq(abs(lost_h - lost_f), 3.0 * sqrt(lost_h + lost_f + 1.0), "lost: hybrid %d, full orbit %d",
                   lost_h, lost_f);
     /* measured (deterministic): 45 compared, 6 switched, 2 + 2 lost, full-orbit
-     * share 0.994, bounce 2.3e-4 +- 7.7e-3, drift 9.8e-4 +- 3.1e-3 */
+     * share 0.994, bounce 2.3e-4 +- 7.7e-3, drift 9.8e-4 +- 3.1e-3, pitch
+     * 1.2 +- 2.0 deg */
     cr_log_info("%d compared, %d switched, lost: Boris %d hybrid %d, full-orbit share %.3f, "
-                "bounce %.2e +- %.2e, drift %.2e +- %.2e",
-                n, switched, lost_f, lost_h, fo_time / all_time, mb, seb, md, sed);
+                "bounce %.2e +- %.2e, drift %.2e +- %.2e, pitch %.2e +- %.2e deg",
+                n, switched, lost_f, lost_h, fo_time / all_time, mb, seb, md, sed,
+                ma * 180 / GCP_PI, sea * 180 / GCP_PI);
     gcp_field_free(f);
 }
