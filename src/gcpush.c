@@ -188,14 +188,14 @@ static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char 
     *files = NULL;
     *nfiles = 0;
     if (!restart) {
-        rc = gcp_scene_load(arg, sc, err);
+        rc = gcp_scene_load_with(arg, gcp_initfile_read, sc, err);
     } else if ((rc = gcp_checkpoint_list(arg, files, nfiles)) == 0 && *nfiles == 0) {
         rc = gcp_error_set(err, GCP_ERR_IO, "%s: no checkpoint to restart from (%s.ckpt.*)", arg,
                            arg);
     } else if (rc == 0) {
         char *text, *path;
         if (!(rc = gcp_checkpoint_read_text((*files)[0], &text, &path, err))) {
-            rc = gcp_scene_parse(path, text, sc, err);
+            rc = gcp_scene_parse_with(path, text, gcp_initfile_read, sc, err);
             if (!rc && strcmp((*sc)->output, arg) != 0)
                 rc = gcp_error_set(err, GCP_ERR_VALUE,
                                    "%s: the checkpoint's run file writes '%s', not '%s'",
@@ -281,6 +281,12 @@ int main(int argc, char **argv)
         MPI_Finalize();
         return EXIT_BAD_INPUT;
     }
+    /* rows of a state file that are not finite: one line, then those particles end NONFINITE */
+    for (size_t k = 0; me == 0 && k < sc->npop; k++)
+        if (sc->pops[k].file[0] && sc->pops[k].init.nonfinite)
+            fprintf(stderr, "gcpush: warning: %s: %lld of its %lld initial states are not finite "
+                    "(those particles end NONFINITE)\n", sc->pops[k].file,
+                    (long long)sc->pops[k].init.nonfinite, (long long)sc->pops[k].count);
     if (!restart && gcp_sweep_wanted(sc)) { /* [sweep]: error against run time (sweep.h) */
         int st = gcp_sweep_main(sc, check, quiet);
         gcp_scene_free(sc);
@@ -292,8 +298,9 @@ int main(int argc, char **argv)
             printf("%s: ok: %lld particles, %s in %s for %.6g s\n", arg, (long long)sc->total,
                    sc->pusher->name, sc->field_model, sc->duration);
             for (size_t k = 0; k < sc->npop; k++)
-                printf("  [%s] %lld %s, %lld steps of %.6g s\n", sc->pops[k].name,
+                printf("  [%s] %lld %s%s%s, %lld steps of %.6g s\n", sc->pops[k].name,
                        (long long)sc->pops[k].count, sc->pops[k].species.name,
+                       sc->pops[k].file[0] ? " from " : "", sc->pops[k].file,
                        (long long)sc->pops[k].nsteps, sc->pops[k].dt);
         }
         gcp_scene_free(sc);
@@ -321,6 +328,15 @@ int main(int argc, char **argv)
     ctx.total = sc->total;
     if (restart) {
         rc = restart_load(sc, &res, files, nfiles, comm, me, nranks, &ctx.todo, &nitems, &err);
+        /* a state file read again must still hold the states the checkpoints started from */
+        int changed = !rc && gcp_initfile_check_results(sc, &res, &err) != 0;
+        MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_MAX, comm);
+        if (!rc && changed)
+            rc = err.code ? err.code
+                          : gcp_error_set(&err, GCP_ERR_STATE,
+                                          "a [particles] file no longer holds the initial states "
+                                          "the checkpoints started from (restore it, or start "
+                                          "the run afresh)");
         if (rc) {
             if (me == 0) fprintf(stderr, "gcpush: %s\n", err.code ? err.msg : "a rank failed to load its checkpoint");
             gcp_results_free(&res);

@@ -82,6 +82,16 @@ int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct 
 /* Appends a checkpoint's rows to r (after checking it belongs to sc). */
 int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp_results *r,
                         struct gcp_error *err);
+/* A gcp_states_reader (run.h) for HDF5 files in the layout gcpush writes
+ * under /particles/initial: x, u for full orbits (gc = 0), X, ppar, mu for
+ * guiding centres (gc = 1).  See initfile.c for what it refuses. */
+int gcp_initfile_read(const char *path, int gc, struct gcp_states *out, char *why,
+                      size_t whylen);
+/* On restart: the checkpointed initial states of r's rows from file
+ * populations must equal the file's now.  0, or GCP_ERR_STATE with err set. */
+int gcp_initfile_check_results(const struct gcp_scene *sc, const struct gcp_results *r,
+                               struct gcp_error *err);
+
 /* Keeps only rows i with keep[i] != 0. */
 void gcp_results_drop(struct gcp_results *r, const unsigned char *keep);
 

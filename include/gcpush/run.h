@@ -34,6 +34,26 @@ struct gcp_range {
 enum gcp_placement { GCP_PLACE_POSITION = 0, GCP_PLACE_L_SHELL = 1 };
 enum gcp_aim { GCP_AIM_DIRECTION = 0, GCP_AIM_PITCH = 1, GCP_AIM_ISOTROPIC = 2 };
 
+/* Initial states given as plain arrays (from `[particles] file = ...`): full
+ * orbit x, u; or guiding centre X (in x), ppar, mu, used as given.  The run
+ * layer reads no files of states itself (no HDF5 here): a gcp_states_reader
+ * passed in by the caller does (gcp_initfile_read, io.h, for gcpush's own
+ * layout).  Owned by the population (freed by gcp_scene_free). */
+struct gcp_states {
+    int64_t n;          /* rows */
+    int gc;             /* [bool] guiding-centre rows: X, ppar, mu; else x, u */
+    double *x;          /* [m] (n x 3) x, or X for guiding-centre rows */
+    double *u;          /* [m/s] (n x 3) u = gamma v (full orbit; NULL for gc) */
+    double *ppar, *mu;  /* [kg m/s], [J/T] (n) (gc; NULL for full orbit) */
+    int64_t nonfinite;  /* rows holding a NaN or Inf (those particles end NONFINITE) */
+};
+
+/* Reads the states of file `path` (as written in the run file) for a method
+ * of kind gc (1: guiding centre, 0: full orbit) into *out (malloc'ed
+ * arrays).  Returns 0, or non-zero with a one-line reason in why. */
+typedef int (*gcp_states_reader)(const char *path, int gc, struct gcp_states *out, char *why,
+                                 size_t whylen);
+
 /* One [particles] or [particles.NAME] section. */
 struct gcp_population {
     char name[32];
@@ -53,6 +73,8 @@ struct gcp_population {
     double dt;              /* [s] resolved step of this population */
     int64_t nsteps;         /* steps per particle (duration / dt) */
     int64_t trajectory_every; /* steps between trajectory samples; 0: none */
+    char file[1024];        /* `file` key: states from this file ("" : drawn from the keys) */
+    struct gcp_states init; /* the file's states (n == count), when file[0] */
 };
 
 struct gcp_scene {
@@ -94,13 +116,28 @@ int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *e
 /* The same from text in memory (path is used in messages only). */
 int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
                     struct gcp_error *err);
+/* The same, with a reader for `[particles] file = ...` (the two above have
+ * none, and refuse that key).  The file's path is used as written: relative
+ * paths are relative to the working directory, like [field] file and
+ * [output] file. */
+int gcp_scene_load_with(const char *path, gcp_states_reader rd, struct gcp_scene **out,
+                        struct gcp_error *err);
+int gcp_scene_parse_with(const char *path, const char *text, gcp_states_reader rd,
+                         struct gcp_scene **out, struct gcp_error *err);
 void gcp_scene_free(struct gcp_scene *s);
 
 /* Initial full-orbit state of particle id (0 <= id < total): position x [m],
  * u = gamma v [m/s], and its population index.  A pure function of
- * (scene seed, id).  Returns 0, or GCP_ERR_VALUE for an id out of range. */
+ * (scene seed, id), or the file's row.  A population of guiding-centre
+ * states from a file has no full-orbit state: x and u are NaN.  Returns 0,
+ * or GCP_ERR_VALUE for an id out of range. */
 int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3],
                             double u[3]);
+/* Initial guiding centre of particle id when its population has one given
+ * (a file of guiding-centre states): X [m], ppar [kg m/s], mu [J/T] and 1;
+ * 0 when the state is to be made from the full orbit (gcp_gc_from_fo). */
+int gcp_scene_initial_gc(const struct gcp_scene *s, int64_t id, double X[3], double *ppar,
+                         double *mu);
 
 /* The period of `which` for a particle of species sp with state (x, u) in
  * field f: gyro 2 pi gamma m / (|q| B) anywhere; bounce and drift in the

@@ -6,7 +6,8 @@
  * A guiding-centre pusher starts each particle from its full-orbit initial
  * state through the first-order guiding-centre transformation
  * (gcp_gc_from_fo), so full-orbit and guiding-centre runs of one run file
- * push the same particles. */
+ * push the same particles; guiding centres given in a file are pushed as
+ * given. */
 #include <math.h>
 #include <string.h>
 #include <time.h>
@@ -160,17 +161,23 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             memcpy(&res->u0[3 * row], u, sizeof u);
             b.x[i] = x[0], b.y[i] = x[1], b.z[i] = x[2];
             b.ux[i] = u[0], b.uy[i] = u[1], b.uz[i] = u[2];
+            const struct gcp_species *sp = &s->pops[pop].species;
+            double X[3], ppar, mu;
+            /* guiding centres given in a file are used as they are */
+            const int given = gc && gcp_scene_initial_gc(s, first + i, X, &ppar, &mu);
             if (gc || hy) {
-                const struct gcp_species *sp = &s->pops[pop].species;
-                double X[3], ppar, mu;
                 /* a start the transformation cannot make (B = 0, outside a grid) is
                  * left non-finite: the block's start-up check gives it its status */
-                if (gcp_gc_from_fo(s->field, t0, sp->charge, sp->mass, x, u, X, &ppar, &mu))
+                if (!given &&
+                    gcp_gc_from_fo(s->field, t0, sp->charge, sp->mass, x, u, X, &ppar, &mu))
                     X[0] = X[1] = X[2] = ppar = mu = NAN;
                 if (gc) { /* hybrid: gcp_hybrid_begin makes the same transformation */
                     b.x[i] = X[0], b.y[i] = X[1], b.z[i] = X[2];
                     b.ppar[i] = ppar;
                     b.mu[i] = mu;
+                    /* the start-up check (gcp_block_start) reads u, which a given guiding
+                     * centre lacks: (ppar/m, 0, sqrt(mu)) is finite exactly when it is */
+                    if (given) b.ux[i] = ppar / sp->mass, b.uy[i] = 0.0, b.uz[i] = sqrt(mu);
                 }
                 memcpy(&res->X0[3 * row], X, sizeof X);
                 res->ppar0[row] = ppar;
@@ -183,9 +190,9 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             /* loss-cone classification at the start (dipole; NaN elsewhere) */
             res->L0[row] = res->aeq0[row] = res->alc0[row] = NAN;
             if (obs)
-                gcp_dipole_classify(s->field, s->pops[pop].species.charge,
-                                    s->pops[pop].species.mass, x, u, 0.0, 0.0, &res->L0[row],
-                                    &res->aeq0[row], &res->alc0[row]);
+                gcp_dipole_classify(s->field, sp->charge, sp->mass, given ? X : x,
+                                    given ? NULL : u, given ? ppar : 0.0, given ? mu : 0.0,
+                                    &res->L0[row], &res->aeq0[row], &res->alc0[row]);
         }
         b.n = b.n_active = (size_t)count;
         b.q = s->pops[pop].species.charge;

@@ -115,6 +115,26 @@ static int positive(struct gcp_section *s, const char *key, double v, struct gcp
 
 /* ---- sections ----------------------------------------------------------- */
 
+/* A population whose states come from a file: the keys that would draw
+ * them are refused (a silent winner between two sources would be a guess);
+ * `count` may stay as a check and must then match the file's rows
+ * (checked in read_state_files, once the file is read). */
+static int file_population(struct gcp_section *s, struct gcp_population *p, struct gcp_error *err)
+{
+    static const char *const drawn[] = {"energy", "L", "longitude", "position", "pitch",
+                                        "phase", "direction", NULL};
+    for (const char *const *k = drawn; *k; k++)
+        if (gcp_section_get(s, *k, NULL))
+            return gcp_section_error(s, *k, err, GCP_ERR_VALUE,
+                                     "conflicts with file = %s (the initial states come from "
+                                     "the file; leave out energy, L, longitude, position, "
+                                     "pitch, phase, direction)", p->file);
+    int rc = get_count(s, "count", 0, 1, 1000000000, &p->count, err);
+    if (rc < 0) return rc;
+    if (rc == 0) p->count = -1; /* from the file */
+    return gcp_section_check_unused(s, "species charge mass count file", err);
+}
+
 static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct gcp_population *p,
                            struct gcp_error *err)
 {
@@ -136,6 +156,8 @@ static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct g
                                  "unknown species '%s' (proton, electron, alpha, O+, custom)",
                                  species);
     }
+    if ((rc = gcp_section_string(s, "file", 0, p->file, sizeof p->file, err)) < 0) return rc;
+    if (p->file[0]) return file_population(s, p, err);
     if ((rc = get_count(s, "count", 1, 1, 1000000000, &p->count, err)) < 0) return rc;
     if ((rc = get_range(s, "energy", GCP_Q_ENERGY, 1, &p->energy, err)) < 0) return rc;
     if (!(p->energy.lo > 0))
@@ -195,7 +217,7 @@ static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct g
         p->has_phase = rc;
     }
     return gcp_section_check_unused(
-        s, "species charge mass count energy L longitude position direction pitch phase", err);
+        s, "species charge mass count energy L longitude position direction pitch phase file", err);
 }
 
 /* trajectory = none | every N steps | N samples (evenly over the run). */
@@ -283,6 +305,49 @@ static int check_sections(struct gcp_run_file *rf, struct gcp_error *err)
     return 0;
 }
 
+/* Reads the states of every population with a `file` key (its count is
+ * the file's), then numbers the particles: ids are consecutive across the
+ * populations in file order. */
+static int read_state_files(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states_reader rd,
+                            struct gcp_error *err)
+{
+    const int gc = sc->pusher->kind == GCP_GUIDING_CENTRE;
+    size_t k = 0;
+    for (size_t i = 0; i < rf->nsec; i++) {
+        if (strncmp(rf->sec[i].name, "particles", 9) != 0) continue;
+        struct gcp_section *s = &rf->sec[i];
+        struct gcp_population *p = &sc->pops[k++];
+        if (p->file[0]) {
+            char why[1200] = "";
+            if (!rd)
+                return gcp_section_error(s, "file", err, GCP_ERR_VALUE,
+                                         "this program reads no files of initial states "
+                                         "(gcp_scene_load_with)");
+            if (gcp_run_file_section(rf, "sweep"))
+                return gcp_section_error(s, "file", err, GCP_ERR_VALUE,
+                                         "a [sweep] draws its particles from the keys; "
+                                         "initial states from a file are for runs");
+            if (rd(p->file, gc, &p->init, why, sizeof why))
+                return gcp_section_error(s, "file", err, GCP_ERR_IO, "%s", why);
+            if (p->init.gc != gc || p->init.n < 1)
+                return gcp_section_error(s, "file", err, GCP_ERR_STATE,
+                                         "%s: the reader returned no usable states", p->file);
+            if (p->count >= 0 && p->count != p->init.n)
+                return gcp_section_error(s, "count", err, GCP_ERR_VALUE,
+                                         "is %lld, but %s holds %lld initial states (leave "
+                                         "count out: the file sets it)",
+                                         (long long)p->count, p->file, (long long)p->init.n);
+            p->count = p->init.n;
+        }
+        p->first_id = sc->total;
+        sc->total += p->count;
+    }
+    return 0;
+}
+
+static void period_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3],
+                         double u[3]);
+
 static const char *period_name(enum gcp_period p)
 {
     return p == GCP_PERIOD_GYRO ? "gyro" : p == GCP_PERIOD_BOUNCE ? "bounce" : "drift";
@@ -297,7 +362,7 @@ static int resolve_duration(struct gcp_scene *sc, struct gcp_section *s, struct 
     }
     int pop;
     double x[3], u[3], T;
-    gcp_scene_initial_state(sc, 0, &pop, x, u);
+    period_state(sc, 0, &pop, x, u);
     if (gcp_period_of(sc->field, sc->field_model, &sc->pops[pop].species, x, u,
                       sc->duration_period, &T))
         return gcp_section_error(s, "duration", err, GCP_ERR_VALUE,
@@ -329,7 +394,10 @@ static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp
     for (int64_t id = p->first_id; id < last; id++) {
         int pop;
         double x[3], u[3], T;
-        gcp_scene_initial_state(sc, id, &pop, x, u);
+        period_state(sc, id, &pop, x, u);
+        /* a non-finite row of a file ends NONFINITE at the start: it has no say */
+        if (p->file[0] && !(isfinite(x[0] + x[1] + x[2]) && isfinite(u[0] + u[1] + u[2])))
+            continue;
         if (gcp_period_of(sc->field, sc->field_model, &p->species, x, u, sc->dt_period, &T))
             return gcp_section_error(s, "dt", err, GCP_ERR_VALUE,
                                      "particle %lld of [particles%s%s] has no %s period in "
@@ -343,7 +411,8 @@ static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp
     return 0;
 }
 
-static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp_error *err)
+static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states_reader rd,
+                       struct gcp_error *err)
 {
     int rc;
     if ((rc = check_sections(rf, err))) return rc;
@@ -380,10 +449,7 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     size_t k = 0;
     for (size_t i = 0; i < rf->nsec; i++) {
         if (strncmp(rf->sec[i].name, "particles", 9) != 0) continue;
-        struct gcp_population *p = &sc->pops[k++];
-        if ((rc = load_population(sc, &rf->sec[i], p, err)) < 0) return rc;
-        p->first_id = sc->total;
-        sc->total += p->count;
+        if ((rc = load_population(sc, &rf->sec[i], &sc->pops[k++], err)) < 0) return rc;
     }
 
     s = gcp_run_file_section(rf, "integrator");
@@ -431,6 +497,8 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
                                                      : "method dt tolerance adiabaticity",
                                        err)))
         return rc;
+    /* the method's kind says which states a file must hold: read them now */
+    if ((rc = read_state_files(sc, rf, rd, err))) return rc;
 
     s = gcp_run_file_section(rf, "diagnostics");
     if (s) {
@@ -507,8 +575,8 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
     return 0;
 }
 
-int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
-                    struct gcp_error *err)
+int gcp_scene_parse_with(const char *path, const char *text, gcp_states_reader rd,
+                         struct gcp_scene **out, struct gcp_error *err)
 {
     *out = NULL;
     struct gcp_scene *sc = calloc(1, sizeof *sc);
@@ -521,7 +589,7 @@ int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
     }
     struct gcp_run_file rf;
     int rc = gcp_run_file_parse(sc->path, text, &rf, err);
-    if (!rc) rc = build_scene(sc, &rf, err);
+    if (!rc) rc = build_scene(sc, &rf, rd, err);
     gcp_run_file_free(&rf);
     if (rc) {
         gcp_scene_free(sc);
@@ -531,21 +599,39 @@ int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
     return 0;
 }
 
-int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *err)
+int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
+                    struct gcp_error *err)
+{
+    return gcp_scene_parse_with(path, text, NULL, out, err);
+}
+
+int gcp_scene_load_with(const char *path, gcp_states_reader rd, struct gcp_scene **out,
+                        struct gcp_error *err)
 {
     char *text;
     *out = NULL;
     int rc = gcp_read_text(path, &text, err);
     if (rc) return rc;
-    rc = gcp_scene_parse(path, text, out, err);
+    rc = gcp_scene_parse_with(path, text, rd, out, err);
     free(text);
     return rc;
+}
+
+int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *err)
+{
+    return gcp_scene_load_with(path, NULL, out, err);
 }
 
 void gcp_scene_free(struct gcp_scene *s)
 {
     if (!s) return;
     gcp_field_free(s->field);
+    for (size_t k = 0; s->pops && k < s->npop; k++) {
+        free(s->pops[k].init.x);
+        free(s->pops[k].init.u);
+        free(s->pops[k].init.ppar);
+        free(s->pops[k].init.mu);
+    }
     free(s->pops);
     free(s->path);
     free(s->text);
@@ -582,6 +668,14 @@ int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, dou
     while (id >= s->pops[k].first_id + s->pops[k].count) k++;
     const struct gcp_population *p = &s->pops[k];
     *pop = (int)k;
+    if (p->file[0]) { /* the file's row; a guiding-centre row has no full orbit */
+        const int64_t r = id - p->first_id;
+        for (int i = 0; i < 3; i++) {
+            x[i] = p->init.gc ? NAN : p->init.x[3 * r + i];
+            u[i] = p->init.gc ? NAN : p->init.u[3 * r + i];
+        }
+        return 0;
+    }
     const double W = spread(&p->energy, draw(s->seed, id, 0));
     const double mc2 = p->species.mass * GCP_C_LIGHT * GCP_C_LIGHT;
     const double umag = sqrt(W * (W + 2.0 * mc2)) / (p->species.mass * GCP_C_LIGHT);
@@ -616,4 +710,44 @@ int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, dou
     }
     for (int i = 0; i < 3; i++) u[i] = umag * d[i];
     return 0;
+}
+
+int gcp_scene_initial_gc(const struct gcp_scene *s, int64_t id, double X[3], double *ppar,
+                         double *mu)
+{
+    if (id < 0 || id >= s->total) return 0;
+    size_t k = 0;
+    while (id >= s->pops[k].first_id + s->pops[k].count) k++;
+    const struct gcp_population *p = &s->pops[k];
+    if (!p->file[0] || !p->init.gc) return 0;
+    const int64_t r = id - p->first_id;
+    memcpy(X, &p->init.x[3 * r], 3 * sizeof(double));
+    *ppar = p->init.ppar[r];
+    *mu = p->init.mu[r];
+    return 1;
+}
+
+/* A full-orbit state standing for particle id in period estimates (a step or
+ * duration given in periods): its own, or for a given guiding centre one at
+ * X itself with p = ppar b + p_perp e1 (gcp_period_of reads the field at x:
+ * the gyro period 2 pi gamma m / (|q| B(X)), and the bounce and drift periods
+ * of X's field line with the guiding centre's pitch angle). */
+static void period_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3], double u[3])
+{
+    double X[3], ppar, mu;
+    gcp_scene_initial_state(s, id, pop, x, u);
+    if (!gcp_scene_initial_gc(s, id, X, &ppar, &mu)) return;
+    const struct gcp_species *sp = &s->pops[*pop].species;
+    struct gcp_field_sample smp = {.need = GCP_NEED_B};
+    const int st = gcp_field_eval(s->field, 0.0, X, &smp);
+    const double Bm = sqrt(smp.B[0] * smp.B[0] + smp.B[1] * smp.B[1] + smp.B[2] * smp.B[2]);
+    if (st || !(Bm > 0) || !isfinite(Bm) || !(mu >= 0)) return; /* stays NaN */
+    const double b[3] = {smp.B[0] / Bm, smp.B[1] / Bm, smp.B[2] / Bm};
+    double e1[3], e2[3];
+    perp_basis(b, e1, e2);
+    const double pperp = sqrt(2.0 * sp->mass * mu * Bm);
+    for (int i = 0; i < 3; i++) {
+        x[i] = X[i];
+        u[i] = (ppar * b[i] + pperp * e1[i]) / sp->mass;
+    }
 }

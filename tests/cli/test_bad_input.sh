@@ -85,6 +85,56 @@ expect corrupt-eqdsk "case.run:8: \[field\] file: corrupt.h5:1: expected 48 char
 grep -q "missing.run: cannot open" stderr.txt || die "missing file: $(cat stderr.txt)"
 "$GCPUSH" --frobnicate > /dev/null 2>&1 && die "unknown option: exit 0"
 
+# [particles] file = ...: every unusable file is refused before anything
+# runs, naming run file, line and key, then the state file and dataset
+"$PY" - <<'PY' || die "making the state files"
+import h5py, numpy as np
+x = np.zeros((3, 3)); u = np.tile([1e5, 0.0, 0.0], (3, 1))
+def make(name, **d):
+    with h5py.File(name, "w") as f:
+        f.create_group("particles/initial")
+        for k, v in d.items():
+            f["particles/initial/" + k] = v
+make("s.h5", x=x, u=u)
+make("gc.h5", X=x, ppar=np.ones(3) * 1e-22, mu=np.ones(3) * 1e-16)
+make("negmu.h5", X=x, ppar=np.ones(3) * 1e-22, mu=np.array([1e-16, -1.0, 1e-16]))
+make("shape.h5", x=np.zeros((3, 2)), u=u)
+make("rows.h5", x=x, u=np.zeros((4, 3)))
+make("int.h5", x=np.zeros((3, 3), dtype=np.int32), u=u)
+make("empty.h5", x=np.zeros((0, 3)), u=np.zeros((0, 3)))
+make("nan.h5", x=x * np.nan, u=u)
+with h5py.File("nogroup.h5", "w") as f:
+    f["x"] = x
+PY
+states() { good | sed "s/^count .*/file = $1/; /^energy/d; /^position/d; /^direction/d"; }
+states s.h5 > case.run
+"$GCPUSH" --quiet case.run || die "a good state file fails"
+rm -f out.h5
+states s.h5 | sed 's/^file = s.h5/count = 3\nfile = s.h5/' > case.run
+"$GCPUSH" --quiet case.run || die "a state file with a matching count fails"
+rm -f out.h5
+states nope.h5 > case.run;      expect file-missing 'case.run:12: \[particles\] file: nope.h5: cannot open (no such file?)'
+states corrupt.h5 > case.run;   expect file-not-hdf5 'case.run:12: \[particles\] file: corrupt.h5: not an HDF5 file'
+states nogroup.h5 > case.run;   expect file-no-group 'file: nogroup.h5: no group /particles/initial'
+states gc.h5 > case.run;        expect fo-needs-x 'file: gc.h5: dataset /particles/initial/x is missing (full-orbit methods start from x'
+states s.h5 | sed 's/^method .*/method = gc-rk4/' > case.run
+expect gc-needs-X 'file: s.h5: dataset /particles/initial/X is missing (guiding-centre methods start from X'
+states negmu.h5 | sed 's/^method .*/method = gc-rk4/' > case.run
+expect negative-mu 'file: negmu.h5: /particles/initial/mu\[1\] = -1: mu must be >= 0'
+states shape.h5 > case.run;     expect file-shape 'shape.h5: /particles/initial/x has the wrong shape (expected (N, 3))'
+states rows.h5 > case.run;      expect file-rows 'rows.h5: /particles/initial/u has 4 rows, the datasets before it 3'
+states int.h5 > case.run;       expect file-int 'int.h5: /particles/initial/x is not floating-point'
+states empty.h5 > case.run;     expect file-empty 'empty.h5: /particles/initial/x has 0 rows'
+states nan.h5 > case.run;       expect file-all-nan 'nan.h5: none of its 3 initial states is finite'
+states s.h5 | sed 's/^file = s.h5/count = 4\nfile = s.h5/' > case.run
+expect file-count 'case.run:12: \[particles\] count: is 4, but s.h5 holds 3 initial states'
+for k in "energy = 1 keV" "position = 0 0 0 m" "direction = 1 0 0" "pitch = 30 deg" "phase = 0 deg" "longitude = 0 deg"; do
+    states s.h5 | sed "s/^file = s.h5/file = s.h5\n$k/" > case.run
+    expect "file-with-${k%% *}" "case.run:13: \[particles\] ${k%% *}: conflicts with file = s.h5"
+done
+states s.h5 | sed 's/^\[output\]/[sweep]\nmethods = boris\ndt = 0.1 gyro\nreference = analytic\n[output]/' > case.run
+expect file-sweep 'case.run:12: \[particles\] file: a \[sweep\] draws its particles from the keys'
+
 # --check validates without writing anything
 good > case.run
 "$GCPUSH" --check case.run > stdout.txt || die "--check fails on a good file"
