@@ -125,9 +125,19 @@ def read_particles(f):
     p["x0"] = np.asarray(require(f, "particles/initial/x")[()], dtype=float).reshape(-1, 3)
     p["u0"] = np.asarray(require(f, "particles/initial/u")[()], dtype=float).reshape(-1, 3)
     p["t"] = np.asarray(require(f, "particles/final/t")[()], dtype=float)
-    # a guiding-centre run ends with X, p_par, mu instead of x, u (u is NaN then)
-    p["gc"] = "particles/final/X" in f
-    if p["gc"]:
+    # a guiding-centre run ends with X, p_par, mu instead of x, u (u is NaN then); a hybrid
+    # run (method = hybrid, /hybrid) has both: x, u the particle, X, ppar, mu its guiding centre
+    p["hybrid"] = "hybrid" in f
+    p["gc"] = "particles/final/X" in f and not p["hybrid"]
+    if p["hybrid"]:
+        p["x"] = np.asarray(require(f, "particles/final/x")[()], dtype=float).reshape(-1, 3)
+        p["u"] = np.asarray(require(f, "particles/final/u")[()], dtype=float).reshape(-1, 3)
+        p["X"] = np.asarray(require(f, "particles/final/X")[()], dtype=float).reshape(-1, 3)
+        p["ppar"] = np.asarray(require(f, "particles/final/ppar")[()], dtype=float)
+        p["mu"] = np.asarray(require(f, "particles/final/mu")[()], dtype=float)
+        for k in ("mode", "switches", "t_gc", "t_fo"):
+            p[k] = np.asarray(require(f, "hybrid/" + k)[()])
+    elif p["gc"]:
         p["x"] = np.asarray(f["particles/final/X"][()], dtype=float).reshape(-1, 3)
         p["ppar"] = np.asarray(require(f, "particles/final/ppar")[()], dtype=float)
         p["mu"] = np.asarray(require(f, "particles/final/mu")[()], dtype=float)
@@ -152,8 +162,9 @@ def has_trajectories(f):
 def read_trajectories(f, rows=None):
     """Trajectory samples of the particles at row indices ROWS (default: all), NaN padding trimmed.
 
-    Returns a list (in the order of ROWS) of dicts {t (S_i,), x (S_i,3), u (S_i,3) or None},
-    or None when the file has no /trajectories.  Only the requested rows are read from disk."""
+    Returns a list (in the order of ROWS) of dicts {t (S_i,), x (S_i,3), u (S_i,3) or None,
+    mode (S_i,) or None (hybrid runs: 0 guiding centre, 1 full orbit)}, or None when the file
+    has no /trajectories.  Only the requested rows are read from disk."""
     if not has_trajectories(f):
         return None
     g = f["trajectories"]
@@ -168,6 +179,7 @@ def read_trajectories(f, rows=None):
     xs = g["x"][sel]
     ts = g["t"][sel] if "t" in g else None
     us = g["u"][sel] if "u" in g else None
+    ms = g["mode"][sel] if "mode" in g else None
     count = (np.asarray(g["count"][sel], dtype=np.int64) if "count" in g
              else np.full(len(sel), xs.shape[1], dtype=np.int64))
     out = []
@@ -177,7 +189,9 @@ def read_trajectories(f, rows=None):
         t = np.asarray(ts[k, :c], dtype=float) if ts is not None else np.arange(c, dtype=float)
         u = np.asarray(us[k, :c], dtype=float).reshape(-1, 3) if us is not None else None
         ok = np.all(np.isfinite(x), axis=1) & np.isfinite(t)   # belt and braces: drop any NaN left
-        out.append({"t": t[ok], "x": x[ok], "u": u[ok] if u is not None else None})
+        m = np.asarray(ms[k, :c], dtype=np.int64) if ms is not None else None
+        out.append({"t": t[ok], "x": x[ok], "u": u[ok] if u is not None else None,
+                    "mode": m[ok] if m is not None else None})
     return out
 
 

@@ -34,6 +34,10 @@ OTHER_CMAPS = ["Oranges", "Greens", "Purples", "Greys", "YlOrBr", "PuRd"]
 
 # ---------------------------------------------------------------- formatting
 
+# method = hybrid: trajectory samples pushed as full orbits (the rest are guiding centres)
+FO_MARK = dict(ls="none", marker=".", ms=2.5, color="k", alpha=0.6, zorder=5)
+
+
 def si(v, unit, digits=3):
     """1.2e-3, "s" -> "1.2 ms"."""
     if v is None or not np.isfinite(v):
@@ -245,6 +249,11 @@ def plot_dipole(fig, d, sel, cols, mark, have_traj):
             ax_eq.plot(xr[:, 0], xr[:, 1], color=c, lw=0.7, alpha=0.9, zorder=3)
             ax_mer.plot(rho, xr[:, 2], color=c, lw=0.7, alpha=0.9, zorder=3)
             ax_t.plot(s["ts"] / tscale, np.linalg.norm(xr, axis=1), color=c, lw=0.7, alpha=0.9)
+            if s["fo"] is not None and s["fo"].any():
+                fo = s["fo"]
+                ax_eq.plot(xr[fo, 0], xr[fo, 1], **FO_MARK)
+                ax_mer.plot(rho[fo], xr[fo, 2], **FO_MARK)
+                ax_t.plot(s["ts"][fo] / tscale, np.linalg.norm(xr[fo], axis=1), **FO_MARK)
             start_mk = dict(marker="o", ms=3.5, mfc=c, mec="k", mew=0.4)
         else:
             start_mk = dict(marker="o", ms=5, mfc="none", mec=c, mew=1.0)
@@ -336,6 +345,9 @@ def plot_generic(fig, d, sel, cols, mark, have_traj, field):
         if s["traj"]:
             ax1.plot(x[:, 0], x[:, 1], color=c, lw=0.7, alpha=0.9, zorder=3)
             ax2.plot(a2, b2, color=c, lw=0.7, alpha=0.9, zorder=3)
+            if s["fo"] is not None and s["fo"].any():
+                ax1.plot(x[s["fo"], 0], x[s["fo"], 1], **FO_MARK)
+                ax2.plot(a2[s["fo"]], b2[s["fo"]], **FO_MARK)
             if third == "energy" and s["ek"] is not None:
                 ax3.plot(s["ts"] / tscale, s["ek"] / escale, color=c, lw=0.8)
             elif third == "z":
@@ -417,7 +429,10 @@ def make_plot(d, out_png, path):
             xlast = xs[-1] if len(xs) else p["x0"][i]
         pts = np.concatenate([xs, p["x0"][i][None, :], xlast[None, :], xf[None, :]], axis=0)
         pts = pts[np.all(np.isfinite(pts), axis=1)]          # everything that sets the limits
+        # hybrid runs: the samples pushed as full orbits, marked on the orbit
+        fo = tr["mode"] == 1 if used_traj and tr.get("mode") is not None else None
         sel.append({"row": i, "pts": pts, "species": p["species"][i], "xs": xs, "ts": ts, "ek": ek,
+                    "fo": fo,
                     "traj": used_traj, "x0": p["x0"][i], "xf": xf, "xlast": xlast,
                     "status": status, "lost": status != g5.ALIVE})
 
@@ -465,6 +480,8 @@ def make_plot(d, out_png, path):
         lab = "ended " + ", ".join("%s (%d)" % (k, v) for k, v in sorted(lost.items()))
         handles.append(Line2D([], [], ls="none", marker="X", ms=8, mfc="0.6", mec="k", mew=0.8,
                               label=lab))
+    if any(s["fo"] is not None and s["fo"].any() for s in sel):
+        handles.append(Line2D([], [], label="full orbit (hybrid)", **FO_MARK))
     ncol = min(len(handles), 5 if npan == 3 else 3)
     nrow = -(-len(handles) // ncol)
     fig.legend(handles=handles, loc="lower center", ncol=ncol, fontsize=9, frameon=False)

@@ -322,6 +322,7 @@ int main(int argc, char **argv)
 
     struct gcp_results res;
     gcp_results_init(&res, sc->trajectory_samples, sc->pusher->kind == GCP_GUIDING_CENTRE);
+    res.hybrid = sc->hybrid;
     struct run_ctx ctx = {.sc = sc, .me = me, .quiet = quiet, .tty = isatty(2)};
     int64_t nitems = gcp_scene_chunk_count(sc);
     ctx.total = sc->total;

@@ -73,7 +73,9 @@ enum gcp_event_kind {
     GCP_EVENT_ENERGY = 3, /* v: kinetic energy [J] (at each equator point) */
     GCP_EVENT_PPHI = 4,   /* v: p_phi [kg m^2/s] (at each equator point) */
     GCP_EVENT_LOSS = 5,   /* status; v: x[3] */
-    GCP_EVENT_KINDS = 6
+    GCP_EVENT_SWITCH = 6, /* method = hybrid (hybrid.h): v: X[3], eps, direction (+1 to full
+                             orbit, -1 to guiding centre), dp2 (energy rescaling) */
+    GCP_EVENT_KINDS = 7
 };
 
 /* Value slots of a bounce event. */

@@ -41,11 +41,18 @@ struct gcp_results {
     double *L0;            /* [1] dipole L of the initial guiding centre (NaN off a dipole) */
     double *aeq0;          /* [rad] initial equatorial pitch angle (dipole mapping) */
     double *alc0;          /* [rad] loss cone at L0 for the field's atmosphere */
+    int hybrid;            /* [bool] method = hybrid rows: x, u and X0, ppar0, mu0, ppar, mu, plus: */
+    double *Xf;            /* [m] final guiding centre (n x 3) (x is the particle) */
+    int32_t *hy_mode;      /* final mode: 0 guiding centre, 1 full orbit */
+    int32_t *hy_switches;  /* switches (both directions) */
+    double *hy_t_gc, *hy_t_fo; /* [s] time pushed as guiding centre, as full orbit */
+    int8_t *traj_mode;     /* (n x S) mode of each sample, -1 after count */
     double rank_cpu;       /* [s] CPU time of this rank's pushing */
     struct gcp_events ev;  /* invariant and loss events of these rows (invariants.h) */
 };
 
-/* gc: rows of a guiding-centre pusher (the columns differ). */
+/* gc: rows of a guiding-centre pusher (the columns differ).  Set r->hybrid
+ * before the first reserve for hybrid rows. */
 void gcp_results_init(struct gcp_results *r, int64_t samples, int gc);
 /* Makes room for `more` rows; returns 0 or GCP_ERR_NOMEM. */
 int gcp_results_reserve(struct gcp_results *r, int64_t more);

@@ -27,7 +27,8 @@ extern "C" {
 
 enum gcp_pusher_kind {
     GCP_FULL_ORBIT = 0,
-    GCP_GUIDING_CENTRE = 1
+    GCP_GUIDING_CENTRE = 1,
+    GCP_HYBRID = 2           /* switches between the two per particle (hybrid.h) */
 };
 
 struct gcp_block;
@@ -87,6 +88,8 @@ extern const struct gcp_pusher_type gcp_pusher_higuera_cary;
 const struct gcp_pusher_type *gcp_pusher_lookup(const char *name);
 /* NULL-terminated list of all pushers. */
 const struct gcp_pusher_type *const *gcp_pusher_types(void);
+/* The registered names, comma-separated, into buf (for messages and --help); returns buf. */
+const char *gcp_pusher_names(char *buf, size_t size);
 
 /* A block: n lanes of one species, struct-of-arrays, pushed together.
  * The stepper keeps the active lanes in [0, n_active): a lane whose status

@@ -13,6 +13,7 @@
 
 #include "error.h"
 #include "field.h"
+#include "hybrid.h"
 #include "particles.h"
 #include "pusher.h"
 #include "section.h"
@@ -87,6 +88,8 @@ struct gcp_scene {
     size_t npop;
     int64_t total;          /* particles in all populations */
     const struct gcp_pusher_type *pusher;
+    int hybrid;             /* [bool] method = hybrid: pusher is gcp_pusher_hybrid, options below */
+    struct gcp_hybrid_opts hybrid_opts; /* [integrator] gc, fo, switch_to_fo, switch_to_gc, fo_dt */
     double duration;        /* [s] resolved run time */
     double duration_given;  /* as written: seconds or periods */
     enum gcp_period duration_period;

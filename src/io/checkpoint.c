@@ -127,6 +127,7 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
     double cpu;
     struct gcp_results part;
     gcp_results_init(&part, r->S, r->gc);
+    part.hybrid = r->hybrid;
     int bad = read_header(fp, &text, &path, &S, &rows, &cpu);
     bad = bad || strcmp(text, sc->text) != 0 || S != r->S || gcp_results_reserve(&part, rows);
     if (!bad) {

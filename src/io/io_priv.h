@@ -7,7 +7,7 @@
 
 #include "gcpush/io.h"
 
-#define GCP_RESULTS_MAX_COLUMNS 24
+#define GCP_RESULTS_MAX_COLUMNS 32
 
 struct gcp_results_column {
     const char *name;  /* the struct member's name */

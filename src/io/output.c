@@ -157,7 +157,7 @@ static void write_particles(struct writer *w, const struct gcp_scene *sc)
     hid_t gi = group(w, g, "initial");
     write_rows(w, gi, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x0);
     write_rows(w, gi, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u0);
-    if (r->gc) { /* the guiding centre made from the full-orbit start above */
+    if (r->gc || r->hybrid) { /* the guiding centre made from the full-orbit start above */
         write_rows(w, gi, "X", H5T_NATIVE_DOUBLE, 2, 3, 0, r->X0);
         write_rows(w, gi, "ppar", H5T_NATIVE_DOUBLE, 1, 0, 0, r->ppar0);
         write_rows(w, gi, "mu", H5T_NATIVE_DOUBLE, 1, 0, 0, r->mu0);
@@ -172,6 +172,11 @@ static void write_particles(struct writer *w, const struct gcp_scene *sc)
     } else {
         write_rows(w, gf, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x);
         write_rows(w, gf, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u);
+    }
+    if (r->hybrid) { /* both forms for every particle (hybrid.h, gcp_hybrid_final) */
+        write_rows(w, gf, "X", H5T_NATIVE_DOUBLE, 2, 3, 0, r->Xf);
+        write_rows(w, gf, "ppar", H5T_NATIVE_DOUBLE, 1, 0, 0, r->ppar);
+        write_rows(w, gf, "mu", H5T_NATIVE_DOUBLE, 1, 0, 0, r->mu);
     }
     write_rows(w, gf, "status", H5T_NATIVE_INT32, 1, 0, 0, r->status);
     /* the status code -> name table, in code order */
@@ -198,8 +203,9 @@ static void write_trajectories(struct writer *w)
     hid_t d3 = trajectory_dcpl(r, w->total, 3, w->compression);
     write_rows_dcpl(w, g, "t", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_t, d2);
     write_rows_dcpl(w, g, "x", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_x, d3);
-    if (r->gc) write_rows_dcpl(w, g, "ppar", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_ppar, d2);
-    else write_rows_dcpl(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u, d3);
+    if (r->gc || r->hybrid) write_rows_dcpl(w, g, "ppar", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_ppar, d2);
+    if (!r->gc) write_rows_dcpl(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u, d3);
+    if (r->hybrid) write_rows_dcpl(w, g, "mode", H5T_NATIVE_INT8, 2, S, 0, r->traj_mode, d2);
     H5Pclose(d2);
     H5Pclose(d3);
     write_rows(w, g, "count", H5T_NATIVE_INT64, 1, 0, 0, r->traj_count);
@@ -399,6 +405,24 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
     }
 }
 
+/* /hybrid (method = hybrid): per particle mode, switches, time in each mode;
+ * the switch events, sorted by (id, t) like the /invariants tables. */
+static void write_hybrid(struct writer *w, MPI_Comm comm)
+{
+    const struct gcp_results *r = w->r;
+    hid_t g = group(w, w->file, "hybrid");
+    write_rows(w, g, "mode", H5T_NATIVE_INT32, 1, 0, 0, r->hy_mode);
+    write_rows(w, g, "switches", H5T_NATIVE_INT32, 1, 0, 0, r->hy_switches);
+    write_rows(w, g, "t_gc", H5T_NATIVE_DOUBLE, 1, 0, 0, r->hy_t_gc);
+    write_rows(w, g, "t_fo", H5T_NATIVE_DOUBLE, 1, 0, 0, r->hy_t_fo);
+    static const struct ev_col c[] = {{"X", 0, 2, 3, 0, "m"},
+                                      {"eps", 3, 1, 0, 0, "1"},
+                                      {"direction", 4, 1, 0, 0, "+1 to full orbit, -1 to guiding centre"},
+                                      {"dp2", 5, 1, 0, 0, "1"}};
+    write_ev_table(w, g, "events", GCP_EVENT_SWITCH, c, sizeof c / sizeof c[0], 0, comm);
+    H5Gclose(g);
+}
+
 static void write_timing(struct writer *w, MPI_Comm comm, int me, int nranks)
 {
     const struct gcp_results *r = w->r;
@@ -493,6 +517,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     write_particles(&w, sc);
     if (r->S) write_trajectories(&w);
     if (sc->invariants || sc->events) write_events(&w, sc, comm);
+    if (r->hybrid) write_hybrid(&w, comm);
     write_timing(&w, comm, me, nranks);
 
     H5Pclose(w.dxpl);

@@ -19,14 +19,20 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
     COL_(u0, 3);
     COL_(t, 1);
     COL_(x, 3);
-    if (r->gc) {
+    if (r->gc || r->hybrid) {
         COL_(X0, 3);
         COL_(ppar0, 1);
         COL_(mu0, 1);
         COL_(ppar, 1);
         COL_(mu, 1);
-    } else {
-        COL_(u, 3);
+    }
+    if (!r->gc) COL_(u, 3);
+    if (r->hybrid) {
+        COL_(Xf, 3);
+        COL_(hy_mode, 1);
+        COL_(hy_switches, 1);
+        COL_(hy_t_gc, 1);
+        COL_(hy_t_fo, 1);
     }
     COL_(status, 1);
     COL_(steps, 1);
@@ -37,8 +43,9 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
     if (S) {
         COL_(traj_t, S);
         COL_(traj_x, 3 * S);
-        if (r->gc) COL_(traj_ppar, S);
-        else COL_(traj_u, 3 * S);
+        if (r->gc || r->hybrid) COL_(traj_ppar, S);
+        if (!r->gc) COL_(traj_u, 3 * S);
+        if (r->hybrid) COL_(traj_mode, S);
         COL_(traj_count, 1);
     }
 #undef COL_
@@ -105,7 +112,7 @@ int gcp_results_sort(struct gcp_results *r)
 
 int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)
 {
-    if (dst->S != src->S || dst->gc != src->gc) return GCP_ERR_STATE;
+    if (dst->S != src->S || dst->gc != src->gc || dst->hybrid != src->hybrid) return GCP_ERR_STATE;
     if (gcp_results_reserve(dst, src->n)) return GCP_ERR_NOMEM;
     struct gcp_results_column cd[GCP_RESULTS_MAX_COLUMNS], cs[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(dst, cd);

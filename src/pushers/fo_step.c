@@ -7,6 +7,7 @@
  * (domain, non-finite) are swapped out of the live range once per step. */
 #include <math.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "gcpush/error.h"
@@ -23,6 +24,20 @@ static const struct gcp_pusher_type *const all_pushers[] = {
     &gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman, NULL};
 
 const struct gcp_pusher_type *const *gcp_pusher_types(void) { return all_pushers; }
+
+const char *gcp_pusher_names(char *buf, size_t size)
+{
+    size_t used = 0;
+    if (!buf || size == 0) return "";
+    buf[0] = '\0';
+    for (const struct gcp_pusher_type *const *p = all_pushers; *p && used < size; p++) {
+        const int w = snprintf(buf + used, size - used, "%s%s", p == all_pushers ? "" : ", ",
+                               (*p)->name);
+        if (w < 0) break;
+        used += (size_t)w;
+    }
+    return buf;
+}
 
 const struct gcp_pusher_type *gcp_pusher_lookup(const char *name)
 {

@@ -196,7 +196,10 @@ int gcp_fo_from_gc(const struct gcp_field *f, double t, double q, double m, cons
             xk[i] = xn;
         }
         if (!isfinite(d2)) return GCP_NONFINITE;
-        conv = d2 <= 1e-30 * (r2 + dot3(X, X) * 1e-6);
+        /* converged to a few ulp of the position: far from the origin (X ~ 1e7 m in
+         * the dipole) the update cannot get below the spacing of doubles at X, which
+         * 1e-18 |X| (the old floor) asked for, so ~1% of the calls never converged */
+        conv = d2 <= 1e-30 * r2 + 4e-30 * dot3(X, X);
     }
     if (!conv) return GCP_STEP_FAILED;
     for (int i = 0; i < 3; i++) {

@@ -13,9 +13,11 @@
 #include <time.h>
 
 #include "gcpush/gc.h"
+#include "gcpush/hybrid.h"
 #include "gcpush/invariants.h"
 #include "gcpush/io.h"
 #include "gcpush/run.h"
+#include "run_priv.h"
 
 int64_t gcp_scene_chunk_count(const struct gcp_scene *s)
 {
@@ -63,6 +65,7 @@ struct traj_ctx {
     struct gcp_results *res;
     int64_t row0;   /* first result row of this chunk */
     int64_t sample; /* next sample index */
+    const struct gcp_hybrid *hy; /* method = hybrid: the mode of each lane; else NULL */
 };
 
 /* Records one trajectory sample of every live lane. */
@@ -77,7 +80,13 @@ static void record(const struct gcp_block *b, double t, void *vctx)
         const size_t j = (size_t)(row * S + k);
         r->traj_t[j] = t;
         r->traj_x[3 * j] = b->x[i], r->traj_x[3 * j + 1] = b->y[i], r->traj_x[3 * j + 2] = b->z[i];
-        if (r->gc) {
+        if (c->hy) { /* the guiding centre's p_par or the particle's u, and which */
+            const int mode = gcp_hybrid_mode(c->hy, b->index[i]);
+            r->traj_mode[j] = (int8_t)mode;
+            if (mode == GCP_MODE_GC) r->traj_ppar[j] = b->ppar[i];
+            else r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i],
+                 r->traj_u[3 * j + 2] = b->uz[i];
+        } else if (r->gc) {
             r->traj_ppar[j] = b->ppar[i];
         } else {
             r->traj_u[3 * j] = b->ux[i], r->traj_u[3 * j + 1] = b->uy[i];
@@ -120,6 +129,12 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory");
         }
     }
+    struct gcp_hybrid *hy = NULL;
+    if (s->hybrid && gcp_hybrid_create(&hy, GCP_CHUNK, &s->hybrid_opts)) {
+        gcp_block_free(&b);
+        gcp_observer_free(obs);
+        return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory (hybrid)");
+    }
     const double t0 = 0.0;
     const int64_t S = res->S;
     const int gc = s->pusher->kind == GCP_GUIDING_CENTRE;
@@ -131,6 +146,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (gcp_results_reserve(res, count)) {
             gcp_block_free(&b);
             gcp_observer_free(obs);
+            gcp_hybrid_free(hy);
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for results");
         }
         const int64_t row0 = res->n;
@@ -149,18 +165,20 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             double X[3], ppar, mu;
             /* guiding centres given in a file are used as they are */
             const int given = gc && gcp_scene_initial_gc(s, first + i, X, &ppar, &mu);
-            if (gc) {
+            if (gc || hy) {
                 /* a start the transformation cannot make (B = 0, outside a grid) is
                  * left non-finite: the block's start-up check gives it its status */
                 if (!given &&
                     gcp_gc_from_fo(s->field, t0, sp->charge, sp->mass, x, u, X, &ppar, &mu))
                     X[0] = X[1] = X[2] = ppar = mu = NAN;
-                b.x[i] = X[0], b.y[i] = X[1], b.z[i] = X[2];
-                b.ppar[i] = ppar;
-                b.mu[i] = mu;
-                /* the start-up check (gcp_block_start) reads u, which a given guiding
-                 * centre lacks: (ppar/m, 0, sqrt(mu)) is finite exactly when it is */
-                if (given) b.ux[i] = ppar / sp->mass, b.uy[i] = 0.0, b.uz[i] = sqrt(mu);
+                if (gc) { /* hybrid: gcp_hybrid_begin makes the same transformation */
+                    b.x[i] = X[0], b.y[i] = X[1], b.z[i] = X[2];
+                    b.ppar[i] = ppar;
+                    b.mu[i] = mu;
+                    /* the start-up check (gcp_block_start) reads u, which a given guiding
+                     * centre lacks: (ppar/m, 0, sqrt(mu)) is finite exactly when it is */
+                    if (given) b.ux[i] = ppar / sp->mass, b.uy[i] = 0.0, b.uz[i] = sqrt(mu);
+                }
                 memcpy(&res->X0[3 * row], X, sizeof X);
                 res->ppar0[row] = ppar;
                 res->mu0[row] = mu;
@@ -183,17 +201,19 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             for (int64_t j = row0 * S; j < (row0 + count) * S; j++) {
                 res->traj_t[j] = NAN;
                 for (int d = 0; d < 3; d++) res->traj_x[3 * j + d] = NAN;
-                if (gc) res->traj_ppar[j] = NAN;
-                else for (int d = 0; d < 3; d++) res->traj_u[3 * j + d] = NAN;
+                if (gc || hy) res->traj_ppar[j] = NAN;
+                if (!gc) for (int d = 0; d < 3; d++) res->traj_u[3 * j + d] = NAN;
+                if (hy) res->traj_mode[j] = -1;
             }
             for (int64_t i = 0; i < count; i++) res->traj_count[row0 + i] = 0;
         }
-        struct traj_ctx tc = {res, row0, 0};
+        struct traj_ctx tc = {res, row0, 0, hy};
         struct gcp_sampler sampler = {s->pops[pop].trajectory_every, record, &tc};
         struct multi_ctx mc = {obs, S ? s->pops[pop].trajectory_every : 0, 0, &tc};
         if (obs) sampler = (struct gcp_sampler){1, multi_sample, &mc};
         const double c0 = cpu_now();
         gcp_block_start(&b, s->field, t0);
+        if (hy) gcp_hybrid_begin(hy, &b, s->field, t0, first);
         if (S) record(&b, t0, &tc);
         const int64_t events_before = res->ev.n;
         if (obs) gcp_observer_begin(obs, &b, t0, first, &res->ev);
@@ -215,7 +235,8 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             }
             opts.t0 = t0 + (double)done * s->pops[pop].dt;
             opts.nsteps = s->pops[pop].nsteps - done < slice ? s->pops[pop].nsteps - done : slice;
-            s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
+            if (hy) gcp_hybrid_advance(hy, &b, s->field, &opts, S ? &sampler : NULL);
+            else s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
             done += opts.nsteps;
         }
         if (stopped) { /* drop the chunk: its rows and events were never complete */
@@ -225,7 +246,13 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (obs && gcp_observer_end(obs, &b)) {
             gcp_block_free(&b);
             gcp_observer_free(obs);
+            gcp_hybrid_free(hy);
             return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for events");
+        }
+        if (hy && gcp_hybrid_store(s, hy, &b, res, row0)) {
+            gcp_block_free(&b);
+            gcp_hybrid_free(hy);
+            return gcp_error_set(err, GCP_ERR_NOMEM, "out of memory for switch events");
         }
         const double spent = cpu_now() - c0;
         res->rank_cpu += spent;
@@ -234,8 +261,10 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         for (size_t i = 0; i < b.n; i++) {
             const int64_t row = row0 + (int64_t)b.index[i];
             res->t[row] = b.t[i];
-            res->x[3 * row] = b.x[i], res->x[3 * row + 1] = b.y[i], res->x[3 * row + 2] = b.z[i];
-            if (gc) {
+            if (!hy) res->x[3 * row] = b.x[i], res->x[3 * row + 1] = b.y[i], res->x[3 * row + 2] = b.z[i];
+            if (hy) {
+                /* x, u, X, ppar, mu: gcp_hybrid_store */
+            } else if (gc) {
                 res->ppar[row] = b.ppar[i];
                 res->mu[row] = b.mu[i];
             } else {
@@ -252,5 +281,6 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
     }
     gcp_block_free(&b);
     gcp_observer_free(obs);
+    gcp_hybrid_free(hy);
     return 0;
 }
