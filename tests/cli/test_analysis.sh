@@ -99,6 +99,7 @@ pcheck pere.txt electron bounce 2e-3 6
 check invp.txt proton 'L*' drift 3e-2 6
 pcheck perp.txt proton bounce 1e-1 6
 
+# (mu of a guiding-centre method: the contract, constant by construction, not a measurement)
 check invg.txt electron mu bounce 1e-12 6
 check invg.txt electron K bounce 1e-6 6
 check invg.txt proton K bounce 1e-6 6
