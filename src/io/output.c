@@ -173,8 +173,18 @@ static void write_particles(struct writer *w, const struct gcp_scene *sc)
         write_rows(w, gf, "x", H5T_NATIVE_DOUBLE, 2, 3, 0, r->x);
         write_rows(w, gf, "u", H5T_NATIVE_DOUBLE, 2, 3, 0, r->u);
     }
-    write_rows(w, gf, "status", H5T_NATIVE_INT32, 1, 0, 0, r->status);
-    /* the status code -> name table, in code order */
+    /* an HDF5 enum over int32 (issue 13): h5dump, h5py and every HDF5
+     * tool show the names; the values are the status codes */
+    {
+        hid_t et = H5Tenum_create(H5T_NATIVE_INT32);
+        for (int32_t v = 0; v < GCP_STATUS_COUNT; v++)
+            if (et < 0 || H5Tenum_insert(et, gcp_status_name(v), &v) < 0) w->bad = 1;
+        if (et >= 0) {
+            write_rows(w, gf, "status", et, 1, 0, 0, r->status);
+            H5Tclose(et);
+        }
+    }
+    /* the same table as a string attribute, for readers of the int32 form */
     {
         hid_t ds = H5Dopen2(gf, "status", H5P_DEFAULT);
         char names_attr[GCP_STATUS_COUNT * 16 + 1] = "";

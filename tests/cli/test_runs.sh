@@ -54,6 +54,18 @@ lc = np.degrees(np.arcsin(np.sqrt(1 / 5.0)))
 assert (s[a > lc + 1] == 0).all() and (s[a < lc - 1] == 2).all(), list(zip(a.round(1), s))
 print("mirror: %d trapped, %d lost, loss cone %.2f deg" % ((s == 0).sum(), (s == 2).sum(), lc))
 PYEOF
+# /particles/final/status is an HDF5 enum (issue 13): h5dump and h5py show
+# the names, the values are the status codes
+h5dump -d /particles/final/status mirror.h5 > dump.txt 2>&1 || die "h5dump: $(head -3 dump.txt)"
+grep -q 'H5T_ENUM' dump.txt && grep -q '"LEFT_DOMAIN"' dump.txt && grep -q '"ALIVE"' dump.txt ||
+    die "status is not an enum with names: $(head -20 dump.txt)"
+"$PY" - mirror.h5 <<'PYEOF' || die "status enum: h5py"
+import sys, h5py
+ds = h5py.File(sys.argv[1], "r")["particles/final/status"]
+e = h5py.check_enum_dtype(ds.dtype)
+want = ["ALIVE", "PRECIPITATED", "LEFT_DOMAIN", "LEFT_GRID", "NONADIABATIC", "NONFINITE", "STEP_FAILED"]
+assert e and {v: k for k, v in e.items()} == dict(enumerate(want)), e
+PYEOF
 # ... and sharply (issue 13): the first-order correction to mu at the start
 # is rho |grad B| / B = (rho / Lm)^2 = 8e-4 at the field minimum (grad B and
 # the curvature vanish there), which moves sin^2 of the loss-cone angle by
