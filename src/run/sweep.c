@@ -454,6 +454,7 @@ static double fo_energy(const struct gcp_field *f, double q, double m, const dou
 {
     double W = kinetic(u, m);
     if (!f->has_E) return W;
+    if (!gcp_gc_has_potential(f)) return NAN; /* E without phi: unknown, not phi = 0 */
     double A[3], phi;
     if (gcp_gc_potential(f, 0.0, x, A, NULL, &phi)) return NAN;
     return W + q * phi;

@@ -4,6 +4,7 @@
  * shared by every GC pusher (one battery). */
 #include <criterion/criterion.h>
 
+#include "gcpush/error.h"
 #include "test_gc_util.h"
 
 /* A uniform 1 mT field along z, as a user callback (no vector potential). */
@@ -447,4 +448,44 @@ Test(gc_basic, battery_step_failed_state_restored)
     gcp_field_free(cb);
     gcp_field_free(u);
     gcp_field_free(f);
+}
+
+/* E without a potential (issue 13): the energy H = gamma m c^2 + q phi is
+ * unknown there, and gcp_gc_energy says so (GCP_ERR_UNKNOWN, NaN) instead of
+ * taking phi = 0, which made a sweep's energy error that of the kinetic
+ * energy alone.  With a potential (uniform E: phi = -E.x) H is exact; without
+ * E no potential is needed. */
+static int cb_uniform_E(double t, const double x[3], struct gcp_field_sample *out, void *ctx)
+{
+    cb_uniform(t, x, out, ctx);
+    out->E[0] = 1e3;
+    return 0;
+}
+
+Test(gc_basic, energy_needs_the_potential)
+{
+    const double X[3] = {1.0, 2.0, 3.0}, q = GCP_E_CHARGE, m = GCP_M_PROTON;
+    const double ppar = 1e-21, mu = 1e-16;
+    double H;
+    struct gcp_field *fe = gcp_field_callback_create(cb_uniform_E, NULL, 1);
+    cr_assert_not_null(fe);
+    cr_assert_eq(gcp_gc_has_potential(fe), 0);
+    cr_assert_eq(gcp_gc_energy(fe, 0, q, m, X, ppar, mu, &H), GCP_ERR_UNKNOWN);
+    cr_assert(isnan(H), "H = %g with an unknown potential", H);
+    gcp_field_free(fe);
+
+    struct gcp_field *f0 = gcp_field_callback_create(cb_uniform, NULL, 0);
+    cr_assert_eq(gcp_gc_has_potential(f0), 1);
+    cr_assert_eq(gcp_gc_energy(f0, 0, q, m, X, ppar, mu, &H), 0);
+    const double g = gcp_gc_gamma(ppar, mu, 1e-3, m);
+    cr_assert(fabs(H / (g * m * GCP_C_LIGHT * GCP_C_LIGHT) - 1) < 1e-15);
+    gcp_field_free(f0);
+
+    const double B[3] = {0, 0, 1e-3}, E[3] = {1e3, 0, 0};
+    struct gcp_field *fu = gcp_field_uniform_create(B, E);
+    cr_assert_eq(gcp_gc_has_potential(fu), 1);
+    cr_assert_eq(gcp_gc_energy(fu, 0, q, m, X, ppar, mu, &H), 0);
+    const double Hex = g * m * GCP_C_LIGHT * GCP_C_LIGHT - q * E[0] * X[0]; /* phi = -E.x */
+    cr_assert(fabs(H - Hex) <= 1e-15 * fabs(Hex), "H %.17g vs %.17g", H, Hex);
+    gcp_field_free(fu);
 }
