@@ -472,6 +472,54 @@ int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error
     return 0;
 }
 
+/* Every dataset carries its unit (issue 13): a `units` attribute, added
+ * here to the datasets written without one ("1": a count, an index, a
+ * code, or dimensionless); the event-table columns already carry theirs.
+ * Attributes cannot carry attributes: the one root attribute with a unit,
+ * duration, gets a companion duration_units.  Collective: every rank walks
+ * the same table. */
+static void write_units(struct writer *w)
+{
+    static const char *const units[][2] = {
+        {"particles/id", "1"}, {"particles/species", "1"}, {"particles/charge", "C"},
+        {"particles/mass", "kg"}, {"particles/dt", "s"},
+        {"particles/initial/x", "m"}, {"particles/initial/u", "m/s"},
+        {"particles/initial/X", "m"}, {"particles/initial/ppar", "kg m/s"},
+        {"particles/initial/mu", "J/T"},
+        {"particles/final/t", "s"}, {"particles/final/x", "m"}, {"particles/final/u", "m/s"},
+        {"particles/final/X", "m"}, {"particles/final/ppar", "kg m/s"},
+        {"particles/final/mu", "J/T"}, {"particles/final/status", "1"},
+        {"trajectories/t", "s"}, {"trajectories/x", "m"}, {"trajectories/u", "m/s"},
+        {"trajectories/ppar", "kg m/s"}, {"trajectories/count", "1"},
+        {"invariants/bounce/id", "1"}, {"invariants/drift/id", "1"}, {"invariants/mu/id", "1"},
+        {"invariants/energy/id", "1"}, {"invariants/pphi/id", "1"},
+        {"losses/id", "1"}, {"losses/status", "1"}, {"losses/initial/L", "1"},
+        {"losses/initial/alpha_eq", "rad"}, {"losses/initial/alpha_lc", "rad"},
+        {"timing/cpu_seconds", "s"}, {"timing/steps", "1"}, {"timing/rank_cpu_seconds", "s"},
+        {"timing/rank_particles", "1"},
+    };
+    for (size_t k = 0; k < sizeof units / sizeof units[0]; k++) {
+        const char *path = units[k][0];
+        /* every link on the way must exist (H5Lexists does not look past a
+         * missing group) */
+        char part[64];
+        int ok = 1;
+        for (const char *q = strchr(path, '/'); ok && q; q = strchr(q + 1, '/')) {
+            snprintf(part, sizeof part, "%.*s", (int)(q - path), path);
+            ok = H5Lexists(w->file, part, H5P_DEFAULT) > 0;
+        }
+        if (!ok || H5Lexists(w->file, path, H5P_DEFAULT) <= 0) continue;
+        hid_t ds = H5Dopen2(w->file, path, H5P_DEFAULT);
+        if (ds < 0) {
+            w->bad = 1;
+            continue;
+        }
+        if (H5Aexists(ds, "units") <= 0) attr_str(w, ds, "units", units[k][1]);
+        H5Dclose(ds);
+    }
+    attr_str(w, w->file, "duration_units", "s");
+}
+
 int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
                      struct gcp_error *err)
 {
@@ -504,6 +552,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     if (r->S) write_trajectories(&w);
     if (sc->invariants || sc->events) write_events(&w, sc, comm);
     write_timing(&w, comm, me, nranks);
+    write_units(&w);
 
     H5Pclose(w.dxpl);
     if (H5Fclose(w.file) < 0) w.bad = 1;
