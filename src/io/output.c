@@ -360,6 +360,12 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
     const int drift = (inv & GCP_INV_L) || (evt & GCP_EVT_DRIFT);
     if (bounce || drift || (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI))) {
         hid_t g = group(w, w->file, "invariants");
+        /* when the events come, and when they do not (issue 13) */
+        attr_str(w, g, "sampling",
+                 "mu, energy, pphi: at each equator point (the minimum of |B| between two "
+                 "mirror points); bounce (J, K): between two mirror points of the same kind; "
+                 "drift (L*, Phi): per turn of the equator points' azimuth. A particle that "
+                 "never mirrors (a passing orbit, a uniform field) gets none of these events");
         if (bounce) {
             static const struct ev_col c[] = {
                 {"period", GCP_BOUNCE_PERIOD, 1, 0, 0, "s"},
@@ -376,6 +382,16 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
                                               {"Lstar", 1, 1, 0, 0, "1"},
                                               {"Phi", 2, 1, 0, 0, "T m^2"}};
             write_ev_table(w, g, "drift", GCP_EVENT_DRIFT, c, 3, 0, comm);
+            /* say why a column is NaN throughout (issue 13) */
+            if (strcmp(sc->field_model, "igrf") == 0) {
+                hid_t gd = H5Gopen2(g, "drift", H5P_DEFAULT);
+                if (gd >= 0) {
+                    attr_str(w, gd, "Lstar_undefined",
+                             "Lstar and Phi are NaN: Phi = |oint A.dl| needs the field's vector "
+                             "potential, which the igrf model does not give");
+                    H5Gclose(gd);
+                }
+            }
         }
         if (inv & GCP_INV_MU) {
             static const struct ev_col c[] = {{"mu", 0, 1, 0, 0, "J/T"}};

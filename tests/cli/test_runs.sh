@@ -66,6 +66,40 @@ e = h5py.check_enum_dtype(ds.dtype)
 want = ["ALIVE", "PRECIPITATED", "LEFT_DOMAIN", "LEFT_GRID", "NONADIABATIC", "NONFINITE", "STEP_FAILED"]
 assert e and {v: k for k, v in e.items()} == dict(enumerate(want)), e
 PYEOF
+# the output says when an invariant is undefined and why (issue 13): L* in
+# the IGRF field (no vector potential), and when events come at all
+RE_ROOT=$(cd "$RUNS/.." && pwd)
+cat > igrf.run <<RUN
+[scene]
+name     = igrf-lstar
+field    = igrf
+duration = 2 s
+seed     = 5
+[field]
+file  = $RE_ROOT/fields/data/igrf14coeffs.txt
+epoch = 2020
+[particles]
+species  = proton
+count    = 2
+energy   = 1 MeV
+position = 4 0 0 RE
+pitch    = 60 deg
+[integrator]
+method = gc-rk4
+dt     = 2 ms
+[diagnostics]
+invariants = L
+events     = drift
+[output]
+file = igrf.h5
+RUN
+"$GCPUSH" --quiet igrf.run || die "igrf.run failed"
+"$PY" - igrf.h5 <<'PYEOF' || die "igrf: no word on the undefined L*"
+import sys, h5py
+f = h5py.File(sys.argv[1], "r")
+assert b"vector potential" in f["invariants/drift"].attrs["Lstar_undefined"]
+assert b"never mirrors" in f["invariants"].attrs["sampling"]
+PYEOF
 # ... and sharply (issue 13): the first-order correction to mu at the start
 # is rho |grad B| / B = (rho / Lm)^2 = 8e-4 at the field minimum (grad B and
 # the curvature vanish there), which moves sin^2 of the loss-cone angle by
