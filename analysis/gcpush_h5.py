@@ -6,7 +6,7 @@ Layout (see /work/shared/DESIGN.md, "HDF5 output"):
                       units = "SI", ranks, scene, field, method, dt [s]
     /particles        id (N) int64, species (N) bytes, charge (N) [C], mass (N) [kg]
     /particles/initial  x (N,3) [m], u (N,3) [m/s]          (u = gamma v)
-    /particles/final    t (N) [s], x (N,3), u (N,3), status (N) int32 (attr `names`)
+    /particles/final    t (N) [s], x (N,3), u (N,3), status (N) HDF5 enum over int32 (attr `names`)
     /trajectories     t (N,S) [s], x (N,S,3), u (N,S,3), count (N)     [only if asked]
     /timing           cpu_seconds (N), steps (N), rank_cpu_seconds (ranks)
 
@@ -91,9 +91,18 @@ def require(f, name):
 
 
 def status_names(f):
-    """Status names in code order, from /particles/final/status attr `names` or the built-in list."""
+    """Status names in code order: from the HDF5 enum type of /particles/final/status
+    (files since issue 13), else its attribute `names`, else the built-in list."""
+    if "particles/final/status" not in f:
+        return list(STATUS_NAMES)
+    ds = f["particles/final/status"]
+    import h5py
+    enum = h5py.check_enum_dtype(ds.dtype)
+    if enum:
+        by_code = {int(v): str(k) for k, v in enum.items()}
+        return [by_code.get(c, "STATUS_%d" % c) for c in range(max(by_code) + 1)]
     try:
-        names = f["particles/final/status"].attrs["names"]
+        names = ds.attrs["names"]
     except KeyError:
         return list(STATUS_NAMES)
     names = _s(np.asarray(names))

@@ -362,8 +362,11 @@ static int grid_eval(const struct gcp_field *f, double t, const double x[3],
         double c, sn;
         const double R = gcp_axi_R(x[0], x[1], g->Rmin, &c, &sn);
         const double p[2] = {R, x[2]};
-        /* with psi, B itself needs its first derivatives (B_R, B_Z), grad B its second */
-        out = gcp_spl_locate(&g->spl, p, g->use_psi ? 1 + grad : grad, &loc);
+        /* B from psi takes psi's first derivatives, grad B its second: the
+         * basis must be located one order up (a full orbit asks for B
+         * only; located at order 0 it read undefined derivatives, and every
+         * particle of a psi-only grid went NONFINITE: issue 13) */
+        out = gcp_spl_locate(&g->spl, p, g->use_psi ? grad + 1 : grad, &loc);
         double b[3], dR[3] = {0}, dZ[3] = {0};
         grid_axi_comp(g, &loc, R, grad, b, dR, dZ);
         gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);

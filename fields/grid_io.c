@@ -63,6 +63,7 @@ static int attr_string(hid_t f, const char *name, char *out, size_t len)
         char *buf = calloc(sz + 1, 1);
         hid_t mt = H5Tcopy(H5T_C_S1);
         H5Tset_size(mt, sz);
+        H5Tset_cset(mt, H5Tget_cset(t)); /* HDF5 converts no ASCII <-> UTF-8 */
         if (buf && H5Aread(a, mt, buf) >= 0) {
             snprintf(out, len, "%s", buf);
             rc = 0;
@@ -73,6 +74,10 @@ static int attr_string(hid_t f, const char *name, char *out, size_t len)
         char *s = NULL;
         hid_t mt = H5Tcopy(H5T_C_S1);
         H5Tset_size(mt, H5T_VARIABLE);
+        /* h5py writes a str as a variable-length UTF-8 string; reading it
+         * into an ASCII memory type fails (no conversion path), which was
+         * reported as "missing" (issue 13) */
+        H5Tset_cset(mt, H5Tget_cset(t));
         if (H5Aread(a, mt, &s) >= 0 && s) {
             snprintf(out, len, "%s", s);
             H5free_memory(s);
@@ -237,9 +242,9 @@ int gcp_grid_read(const char *path, struct gcp_grid_data *d, struct gcp_error *e
     char geom[64] = "";
     if (attr_string(f, "geometry", geom, sizeof geom) < 0) {
         rc = gcp_error_set(err, GCP_ERR_VALUE,
-                           "%s: attribute /geometry missing (expected 'axisymmetric' or "
+                           "%s: attribute /geometry %s (expected the string 'axisymmetric' or "
                            "'cartesian')",
-                           path);
+                           path, H5Aexists(f, "geometry") > 0 ? "is not a readable string" : "missing");
         goto out;
     }
     int nd;

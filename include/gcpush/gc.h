@@ -95,8 +95,16 @@ int gcp_gc_adiabaticity(const struct gcp_field *f, double t, double q, double m,
 int gcp_gc_rhs_at(const struct gcp_field *f, double t, double q, double m, const double X[3],
                   double ppar, double mu, double dXdt[3], double *dppar);
 
-/* Energy H = gamma m c^2 + q phi [J] (phi from gcp_gc_potential; 0 when the
- * field has no potential).  Returns 0 or the field's status. */
+/* 1 when the field's electric potential is known wherever it has an E
+ * (the analytic models; any field without E), 0 otherwise (a grid, an
+ * EQDSK or a callback field with E): then gcp_gc_energy cannot give
+ * H = gamma m c^2 + q phi. */
+int gcp_gc_has_potential(const struct gcp_field *f);
+
+/* Energy H = gamma m c^2 + q phi [J] (phi from gcp_gc_potential; none
+ * needed where the field has no E).  Returns 0 or the field's status;
+ * GCP_ERR_UNKNOWN with *H = NaN where the field has E but no potential
+ * (gcp_gc_has_potential): never a silent phi = 0. */
 int gcp_gc_energy(const struct gcp_field *f, double t, double q, double m, const double X[3],
                   double ppar, double mu, double *H);
 

@@ -13,9 +13,12 @@
  *
  * Embedding: include this header and nothing else (pkg-config --cflags gcpush);
  * no library to link but -lm.  An embedding code need not set any flag:
- * every sqrt argument here is >= 1 (or a sum of squares) and sin/cos get
+ * every sqrt argument here is >= 1, a sum of squares, or the positive root
+ * of gcp_gamma_root_ (a quotient of positive numbers), and sin/cos get
  * finite arguments, so errno is never written whatever -f[no-]math-errno
- * says.  The one thing -fno-math-errno changes is speed: GCC vectorises a
+ * says.  A non-negative argument does not make a sqrt accurate: each root
+ * is written so that it never subtracts nearly equal numbers (issue 13:
+ * gamma up to 1e9, omega_c dt up to 1e6, tests/unit/test_kernels_extreme.c).  The one thing -fno-math-errno changes is speed: GCC vectorises a
  * loop calling sqrt only under it (results are identical).  Do not build
  * with -ffast-math or -ffp-contract=fast if you want the batch and AoS forms
  * bit-identical to the scalar kernels across compilers and call sites
@@ -122,13 +125,44 @@ static inline GCP_HD void gcp_push_boris_zu(double *ux, double *uy, double *uz,
     *uz = upar * bz + (umz - upar * bz) * c + (umx * by - umy * bx) * s + qdt2m * Ez;
 }
 
+/* The gamma root shared by Vay and Higuera-Cary: gamma^2 is the positive
+ * root of g^2 - sigma g - (tau^2 + u*^2) = 0 (g = gamma^2),
+ *   g = (sigma + sqrt(sigma^2 + 4 (tau^2 + u*^2))) / 2            sigma >= 0,
+ *   g = 2 (tau^2 + u*^2) / (sqrt(sigma^2 + 4 (tau^2 + u*^2)) - sigma)   sigma < 0.
+ * The two are equal in exact arithmetic (multiply the first by the
+ * conjugate).  Where sigma << 0 (tau >> gamma: omega_c dt >> 1) the first
+ * subtracts two nearly equal numbers -- relative error eps sigma^2 / g, and
+ * with u* = 0 it rounds to g = 0, then t = tau / 0 -- the second adds two
+ * positive ones.  Neither form divides by zero: for sigma < 0, tau^2 > 0
+ * (sigma = gamma'^2 - tau^2 and gamma' >= 1), so the denominator is > 0.
+ * Returns gamma = sqrt(g). */
+static inline GCP_HD double gcp_gamma_root_(double sigma, double tau2, double ustar)
+{
+    const double d = tau2 + ustar * ustar;
+    const double r = sqrt(sigma * sigma + 4.0 * d);
+    return sqrt(sigma >= 0.0 ? 0.5 * (sigma + r) : 2.0 * d / (r - sigma));
+}
+
 /* Vay pusher (Vay 2008, Phys. Plasmas 15 056701, eqs. 11-13): correct
  * E x B drift at any gamma, including the force-free E + v x B = 0 case.
  *   u'    = u + (q dt/m) E + (q dt/2m) (u/gamma) x B
  *   tau   = (q dt / 2m) B,  u* = u'.tau / c,  sigma = gamma'^2 - tau^2
  *   gamma = sqrt( (sigma + sqrt(sigma^2 + 4 (tau^2 + u*^2))) / 2 )
  *   t = tau / gamma,  s = 1 / (1 + t^2)
- *   u_new = s [u' + (u'.t) t + u' x t]                                     */
+ *   u_new = s [u' + (u'.t) t + u' x t]
+ * Written without cancellation at omega_c dt >> 1 (issue 13), where the
+ * half-rotated u' = w + v x tau (w = u + (q dt/m) E, v = u/gamma) is
+ * dominated by v x tau, |u'| ~ |u| omega_c dt / 2:
+ *  - sigma from w and v, not from |u'|^2: with |v x tau|^2 =
+ *    v^2 tau^2 - (v.tau)^2 (c = 1), 1 - v^2 = 1/gamma^2 and
+ *    u.(v x tau) = 0,
+ *      sigma = 1 + |w|^2 + 2 e.(v x tau) - tau^2/gamma^2 - (v.tau)^2,
+ *    e = (q dt/m) E; 1 + |u'|^2 - tau^2 instead rounds to eps tau^2 and
+ *    loses eps (omega_c dt)^2 of |u| per step;
+ *  - u'.tau = w.tau and u'.t = w.t ((v x tau) is normal to tau), so the
+ *    huge normal component does not round into u* and (u'.t) t;
+ *  - the gamma root in its cancellation-free form (gcp_gamma_root_).
+ * All three are identities: the scheme is Vay's, only its rounding changes. */
 static inline GCP_HD void gcp_push_vay(double *ux, double *uy, double *uz,
                                        double Ex, double Ey, double Ez,
                                        double Bx, double By, double Bz,
@@ -137,18 +171,23 @@ static inline GCP_HD void gcp_push_vay(double *ux, double *uy, double *uz,
     const double qdt2m = 0.5 * q * dt / m;
     const double inv_gamma = 1.0 / gcp_gamma_of_u(*ux, *uy, *uz);
     const double vx = *ux * inv_gamma, vy = *uy * inv_gamma, vz = *uz * inv_gamma;
-    const double upx = *ux + 2.0 * qdt2m * Ex + qdt2m * (vy * Bz - vz * By);
-    const double upy = *uy + 2.0 * qdt2m * Ey + qdt2m * (vz * Bx - vx * Bz);
-    const double upz = *uz + 2.0 * qdt2m * Ez + qdt2m * (vx * By - vy * Bx);
+    const double ex = 2.0 * qdt2m * Ex, ey = 2.0 * qdt2m * Ey, ez = 2.0 * qdt2m * Ez;
+    const double wx = *ux + ex, wy = *uy + ey, wz = *uz + ez;
     const double taux = qdt2m * Bx, tauy = qdt2m * By, tauz = qdt2m * Bz;
+    const double vtx = vy * tauz - vz * tauy; /* v x tau */
+    const double vty = vz * taux - vx * tauz;
+    const double vtz = vx * tauy - vy * taux;
+    const double upx = wx + vtx, upy = wy + vty, upz = wz + vtz;
     const double tau2 = taux * taux + tauy * tauy + tauz * tauz;
-    const double ustar = (upx * taux + upy * tauy + upz * tauz) * (1.0 / GCP_C_LIGHT);
-    const double sigma = 1.0 + (upx * upx + upy * upy + upz * upz) * GCP_INV_C2 - tau2;
-    const double gamma_new =
-        sqrt(0.5 * (sigma + sqrt(sigma * sigma + 4.0 * (tau2 + ustar * ustar))));
+    const double wtau = wx * taux + wy * tauy + wz * tauz;
+    const double vtau = (vx * taux + vy * tauy + vz * tauz) * (1.0 / GCP_C_LIGHT);
+    const double sigma = 1.0 + (wx * wx + wy * wy + wz * wz) * GCP_INV_C2 +
+                         2.0 * (ex * vtx + ey * vty + ez * vtz) * GCP_INV_C2 -
+                         tau2 * (inv_gamma * inv_gamma) - vtau * vtau;
+    const double gamma_new = gcp_gamma_root_(sigma, tau2, wtau * (1.0 / GCP_C_LIGHT));
     const double tx = taux / gamma_new, ty = tauy / gamma_new, tz = tauz / gamma_new;
     const double s = 1.0 / (1.0 + tx * tx + ty * ty + tz * tz);
-    const double ut = upx * tx + upy * ty + upz * tz;
+    const double ut = wtau / gamma_new; /* u'.t = w.tau / gamma_new */
     *ux = s * (upx + ut * tx + (upy * tz - upz * ty));
     *uy = s * (upy + ut * ty + (upz * tx - upx * tz));
     *uz = s * (upz + ut * tz + (upx * ty - upy * tx));
@@ -161,9 +200,13 @@ static inline GCP_HD void gcp_push_vay(double *ux, double *uy, double *uz,
  * per step is 2 atan(tau / gamma_bar), gamma_bar of the step-averaged u.
  *   u-  = u + (q dt/2m) E,  tau = (q dt/2m) B
  *   gamma_new from the same quartic root as Vay with u- in place of u'
+ *   (gcp_gamma_root_: cancellation-free where sigma = gamma-^2 - tau^2 < 0)
  *   t = tau/gamma_new,  s = 1/(1 + t^2)
- *   u+  = s [u- + (u-.t) t + u- x t]
- *   u   = u+ + (q dt/2m) E + u+ x t                                          */
+ *   u_bar = s [u- + (u-.t) t + u- x t]
+ *   u   = u_bar + (q dt/2m) E + u_bar x t
+ * computed as u = u- + 2 s (u- + u- x t) x t + (q dt/2m) E, the identical
+ * Cayley rotation (u_bar x t = s [u- x t + (u-.t) t - t^2 u-]) without the
+ * eps |u| omega_c dt rounding of u_bar x t at omega_c dt >> 1 (issue 13). */
 static inline GCP_HD void gcp_push_higuera_cary(double *ux, double *uy, double *uz,
                                                 double Ex, double Ey, double Ez,
                                                 double Bx, double By, double Bz,
@@ -177,17 +220,19 @@ static inline GCP_HD void gcp_push_higuera_cary(double *ux, double *uy, double *
     const double tau2 = taux * taux + tauy * tauy + tauz * tauz;
     const double ustar = (umx * taux + umy * tauy + umz * tauz) * (1.0 / GCP_C_LIGHT);
     const double sigma = 1.0 + (umx * umx + umy * umy + umz * umz) * GCP_INV_C2 - tau2;
-    const double gamma_new =
-        sqrt(0.5 * (sigma + sqrt(sigma * sigma + 4.0 * (tau2 + ustar * ustar))));
+    const double gamma_new = gcp_gamma_root_(sigma, tau2, ustar);
     const double tx = taux / gamma_new, ty = tauy / gamma_new, tz = tauz / gamma_new;
     const double s = 1.0 / (1.0 + tx * tx + ty * ty + tz * tz);
-    const double ut = umx * tx + umy * ty + umz * tz;
-    const double upx = s * (umx + ut * tx + (umy * tz - umz * ty));
-    const double upy = s * (umy + ut * ty + (umz * tx - umx * tz));
-    const double upz = s * (umz + ut * tz + (umx * ty - umy * tx));
-    *ux = upx + qdt2m * Ex + (upy * tz - upz * ty);
-    *uy = upy + qdt2m * Ey + (upz * tx - upx * tz);
-    *uz = upz + qdt2m * Ez + (upx * ty - upy * tx);
+    /* u_bar + u_bar x t = u- + 2 s (u- + u- x t) x t: the same Cayley
+     * rotation in Boris's form, where the parallel part of u- never meets
+     * t in a cross product (u_bar x t rounds it to eps |u| t). */
+    const double s2 = 2.0 * s;
+    const double upx = umx + (umy * tz - umz * ty);
+    const double upy = umy + (umz * tx - umx * tz);
+    const double upz = umz + (umx * ty - umy * tx);
+    *ux = umx + s2 * (upy * tz - upz * ty) + qdt2m * Ex;
+    *uy = umy + s2 * (upz * tx - upx * tz) + qdt2m * Ey;
+    *uz = umz + s2 * (upx * ty - upy * tx) + qdt2m * Ez;
 }
 
 /* Batch forms over struct-of-arrays: the same scalar kernel in a restrict-ed

@@ -83,6 +83,11 @@ extern const struct gcp_pusher_type gcp_pusher_boris;
 extern const struct gcp_pusher_type gcp_pusher_boris_zu;
 extern const struct gcp_pusher_type gcp_pusher_vay;
 extern const struct gcp_pusher_type gcp_pusher_higuera_cary;
+/* The full Lorentz equations under GSL rk8pd (src/pushers/fo_rk8pd.c): a
+ * reference for sweeps ([sweep] reference = fo-rk8pd 1e-13), independent of
+ * every method it judges; not in gcp_pusher_types() (no run uses it). */
+extern const struct gcp_pusher_type gcp_pusher_fo_rk8pd;
+#define GCP_FO_RK8PD_TOL 1e-13
 
 /* The pusher called `name`, or NULL. */
 const struct gcp_pusher_type *gcp_pusher_lookup(const char *name);

@@ -178,8 +178,18 @@ static void write_particles(struct writer *w, const struct gcp_scene *sc)
         write_rows(w, gf, "ppar", H5T_NATIVE_DOUBLE, 1, 0, 0, r->ppar);
         write_rows(w, gf, "mu", H5T_NATIVE_DOUBLE, 1, 0, 0, r->mu);
     }
-    write_rows(w, gf, "status", H5T_NATIVE_INT32, 1, 0, 0, r->status);
-    /* the status code -> name table, in code order */
+    /* an HDF5 enum over int32 (issue 13): h5dump, h5py and every HDF5
+     * tool show the names; the values are the status codes */
+    {
+        hid_t et = H5Tenum_create(H5T_NATIVE_INT32);
+        for (int32_t v = 0; v < GCP_STATUS_COUNT; v++)
+            if (et < 0 || H5Tenum_insert(et, gcp_status_name(v), &v) < 0) w->bad = 1;
+        if (et >= 0) {
+            write_rows(w, gf, "status", et, 1, 0, 0, r->status);
+            H5Tclose(et);
+        }
+    }
+    /* the same table as a string attribute, for readers of the int32 form */
     {
         hid_t ds = H5Dopen2(gf, "status", H5P_DEFAULT);
         char names_attr[GCP_STATUS_COUNT * 16 + 1] = "";
@@ -356,6 +366,12 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
     const int drift = (inv & GCP_INV_L) || (evt & GCP_EVT_DRIFT);
     if (bounce || drift || (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI))) {
         hid_t g = group(w, w->file, "invariants");
+        /* when the events come, and when they do not (issue 13) */
+        attr_str(w, g, "sampling",
+                 "mu, energy, pphi: at each equator point (the minimum of |B| between two "
+                 "mirror points); bounce (J, K): between two mirror points of the same kind; "
+                 "drift (L*, Phi): per turn of the equator points' azimuth. A particle that "
+                 "never mirrors (a passing orbit, a uniform field) gets none of these events");
         if (bounce) {
             static const struct ev_col c[] = {
                 {"period", GCP_BOUNCE_PERIOD, 1, 0, 0, "s"},
@@ -372,6 +388,16 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
                                               {"Lstar", 1, 1, 0, 0, "1"},
                                               {"Phi", 2, 1, 0, 0, "T m^2"}};
             write_ev_table(w, g, "drift", GCP_EVENT_DRIFT, c, 3, 0, comm);
+            /* say why a column is NaN throughout (issue 13) */
+            if (strcmp(sc->field_model, "igrf") == 0) {
+                hid_t gd = H5Gopen2(g, "drift", H5P_DEFAULT);
+                if (gd >= 0) {
+                    attr_str(w, gd, "Lstar_undefined",
+                             "Lstar and Phi are NaN: Phi = |oint A.dl| needs the field's vector "
+                             "potential, which the igrf model does not give");
+                    H5Gclose(gd);
+                }
+            }
         }
         if (inv & GCP_INV_MU) {
             static const struct ev_col c[] = {{"mu", 0, 1, 0, 0, "J/T"}};
@@ -486,6 +512,54 @@ int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error
     return 0;
 }
 
+/* Every dataset carries its unit (issue 13): a `units` attribute, added
+ * here to the datasets written without one ("1": a count, an index, a
+ * code, or dimensionless); the event-table columns already carry theirs.
+ * Attributes cannot carry attributes: the one root attribute with a unit,
+ * duration, gets a companion duration_units.  Collective: every rank walks
+ * the same table. */
+static void write_units(struct writer *w)
+{
+    static const char *const units[][2] = {
+        {"particles/id", "1"}, {"particles/species", "1"}, {"particles/charge", "C"},
+        {"particles/mass", "kg"}, {"particles/dt", "s"},
+        {"particles/initial/x", "m"}, {"particles/initial/u", "m/s"},
+        {"particles/initial/X", "m"}, {"particles/initial/ppar", "kg m/s"},
+        {"particles/initial/mu", "J/T"},
+        {"particles/final/t", "s"}, {"particles/final/x", "m"}, {"particles/final/u", "m/s"},
+        {"particles/final/X", "m"}, {"particles/final/ppar", "kg m/s"},
+        {"particles/final/mu", "J/T"}, {"particles/final/status", "1"},
+        {"trajectories/t", "s"}, {"trajectories/x", "m"}, {"trajectories/u", "m/s"},
+        {"trajectories/ppar", "kg m/s"}, {"trajectories/count", "1"},
+        {"invariants/bounce/id", "1"}, {"invariants/drift/id", "1"}, {"invariants/mu/id", "1"},
+        {"invariants/energy/id", "1"}, {"invariants/pphi/id", "1"},
+        {"losses/id", "1"}, {"losses/status", "1"}, {"losses/initial/L", "1"},
+        {"losses/initial/alpha_eq", "rad"}, {"losses/initial/alpha_lc", "rad"},
+        {"timing/cpu_seconds", "s"}, {"timing/steps", "1"}, {"timing/rank_cpu_seconds", "s"},
+        {"timing/rank_particles", "1"},
+    };
+    for (size_t k = 0; k < sizeof units / sizeof units[0]; k++) {
+        const char *path = units[k][0];
+        /* every link on the way must exist (H5Lexists does not look past a
+         * missing group) */
+        char part[64];
+        int ok = 1;
+        for (const char *q = strchr(path, '/'); ok && q; q = strchr(q + 1, '/')) {
+            snprintf(part, sizeof part, "%.*s", (int)(q - path), path);
+            ok = H5Lexists(w->file, part, H5P_DEFAULT) > 0;
+        }
+        if (!ok || H5Lexists(w->file, path, H5P_DEFAULT) <= 0) continue;
+        hid_t ds = H5Dopen2(w->file, path, H5P_DEFAULT);
+        if (ds < 0) {
+            w->bad = 1;
+            continue;
+        }
+        if (H5Aexists(ds, "units") <= 0) attr_str(w, ds, "units", units[k][1]);
+        H5Dclose(ds);
+    }
+    attr_str(w, w->file, "duration_units", "s");
+}
+
 int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
                      struct gcp_error *err)
 {
@@ -519,6 +593,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     if (sc->invariants || sc->events) write_events(&w, sc, comm);
     if (r->hybrid) write_hybrid(&w, comm);
     write_timing(&w, comm, me, nranks);
+    write_units(&w);
 
     H5Pclose(w.dxpl);
     if (H5Fclose(w.file) < 0) w.bad = 1;

@@ -15,11 +15,16 @@
  * the method's default.
  *
  * Each lane runs alone to t_end = t0 + nsteps dt (dt is its first trial
- * step), its `steps` counting accepted steps.  With a sampler every k steps,
- * every lane lands on t0 + j k dt (evolve's final-step clipping) and the
- * sampler sees the block there.  After every accepted step: the field's
- * domain (r_inner, r_outer, z_max like gcp_block_classify) and, with
- * opts->adiabaticity_max > 0, the adiabaticity.
+ * step), its `steps` counting accepted steps, which the error control
+ * alone chooses: only t_end clips a step.  With a sampler every k steps,
+ * the sampler sees the block at t0 + j k dt with every lane's state there
+ * from one extra step of the same stepper out of the accepted step that
+ * contains that time (lane_run): sampling costs those extra steps but no
+ * longer caps the step at the cadence (issue 13).  After every accepted
+ * step: the field's domain (r_inner, r_outer, z_max like
+ * gcp_block_classify) and, with opts->adiabaticity_max > 0, the
+ * adiabaticity; a stop found beyond a sampling time is reported at the
+ * first sampling time after it.
  *
  * Failures, per lane, with its state restored to the last accepted step:
  *   - the right-hand side leaves the field's domain, is non-finite or hits
@@ -78,57 +83,115 @@ struct adaptive_ws {
     gsl_odeiv2_evolve *ev;
 };
 
-/* Integrates lane i from b->t[i] to t1; returns its status (0: reached t1). */
-static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f,
-                        const struct gcp_push_opts *o, struct adaptive_ws *w, double *h,
-                        double t1, double t_span)
+/* The integration state of one lane, kept between sampling times: the
+ * step sequence belongs to the lane alone and follows the tolerance only
+ * (issue 13: it used to stop at every sampling time, so the output cadence
+ * capped the step).  y at t (scaled), the last accepted step's start
+ * (ya at ta) for the samples inside it, the proposed next step h, the
+ * scales, and a stop found beyond the last sampling time. */
+struct lane_state {
+    double y[4], ya[4];
+    double t, ta, h, Ls, Ps;
+    int32_t stop; /* status of a stop at t, reported at the next sampling time after it */
+};
+
+/* Starts lane i at b->t[i] with first trial step h. */
+static void lane_init(struct lane_state *L, const struct gcp_block *b, size_t i,
+                      const struct gcp_field *f, double h)
 {
-    struct lane_sys c = {f, b->q, b->m, b->mu[i], 1.0, 1.0, 0};
     const double X0[3] = {b->x[i], b->y[i], b->z[i]};
     struct gcp_field_sample smp = {.need = GCP_NEED_B};
     gcp_field_eval(f, b->t[i], X0, &smp);
     const double Bm = sqrt(smp.B[0] * smp.B[0] + smp.B[1] * smp.B[1] + smp.B[2] * smp.B[2]);
     const double Ls = sqrt(X0[0] * X0[0] + X0[1] * X0[1] + X0[2] * X0[2]);
     const double Ps = sqrt(b->ppar[i] * b->ppar[i] + 2.0 * b->m * b->mu[i] * Bm);
-    c.Ls = Ls > 0.0 && isfinite(Ls) ? Ls : 1.0;
-    c.Ps = Ps > 0.0 && isfinite(Ps) ? Ps : b->m;
+    L->Ls = Ls > 0.0 && isfinite(Ls) ? Ls : 1.0;
+    L->Ps = Ps > 0.0 && isfinite(Ps) ? Ps : b->m;
+    for (int d = 0; d < 3; d++) L->y[d] = X0[d] / L->Ls;
+    L->y[3] = b->ppar[i] / L->Ps;
+    memcpy(L->ya, L->y, sizeof L->y);
+    L->t = L->ta = b->t[i];
+    L->h = h;
+    L->stop = 0;
+}
+
+static void lane_put(struct gcp_block *b, size_t i, const struct lane_state *L, const double y[4])
+{
+    b->x[i] = y[0] * L->Ls, b->y[i] = y[1] * L->Ls, b->z[i] = y[2] * L->Ls;
+    b->ppar[i] = y[3] * L->Ps;
+}
+
+/* Advances lane i until its state reaches t1 (or it stops), with steps
+ * chosen by the error control alone: only t_end clips a step.  Puts the
+ * lane's state at t1 into the block -- the integration state itself when
+ * a step ended there, else one extra step of the same stepper from the
+ * start of the step that passed t1, of length t1 - ta (shorter than an
+ * accepted step, so within the tolerance; it does not touch the lane's
+ * own sequence).  Returns the lane's status at t1: 0 when alive there, a
+ * stop found before t1 (with the stop's state and time in the block). */
+static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f,
+                        const struct gcp_push_opts *o, struct adaptive_ws *w,
+                        struct lane_state *L, double t1, double t_end)
+{
+    struct lane_sys c = {f, b->q, b->m, b->mu[i], L->Ls, L->Ps, 0};
     gsl_odeiv2_system sys = {lane_rhs, NULL, 4, &c};
-    double y[4] = {X0[0] / c.Ls, X0[1] / c.Ls, X0[2] / c.Ls, b->ppar[i] / c.Ps};
-    double t = b->t[i];
+    const double hmin_rel = 1e3 * DBL_EPSILON, t_span = t_end - o->t0;
+    int64_t accepted = 0;
     gsl_odeiv2_step_reset(w->step);
     gsl_odeiv2_evolve_reset(w->ev);
-    const double hmin_rel = 1e3 * DBL_EPSILON;
-    int32_t status = 0;
-    int64_t accepted = 0;
-    while (t < t1) {
+    while (!L->stop && L->t < t1) {
         double yg[4];
-        memcpy(yg, y, sizeof y);
-        const double tg = t;
+        memcpy(yg, L->y, sizeof yg);
+        const double tg = L->t;
         c.status = 0;
-        const int rc = gsl_odeiv2_evolve_apply(w->ev, w->ctrl, w->step, &sys, &t, t1, h, y);
-        const double taken = t - tg;
+        const int rc = gsl_odeiv2_evolve_apply(w->ev, w->ctrl, w->step, &sys, &L->t, t_end,
+                                               &L->h, L->y);
+        const double taken = L->t - tg;
         if (rc != GSL_SUCCESS || !(taken > 0.0) ||
-            (t < t1 && taken < hmin_rel * (fabs(t) + t_span))) {
-            status = rc == GSL_EBADFUNC && c.status ? c.status : GCP_STEP_FAILED;
-            memcpy(y, yg, sizeof y);
-            t = tg;
+            (L->t < t_end && taken < hmin_rel * (fabs(L->t) + t_span))) {
+            L->stop = rc == GSL_EBADFUNC && c.status ? c.status : GCP_STEP_FAILED;
+            memcpy(L->y, yg, sizeof yg);
+            L->t = tg;
             break;
         }
         accepted++;
-        const double X[3] = {y[0] * c.Ls, y[1] * c.Ls, y[2] * c.Ls};
-        status = lane_geo(f, X);
-        if (!status && o->adiabaticity_max > 0.0) {
+        memcpy(L->ya, yg, sizeof yg);
+        L->ta = tg;
+        const double X[3] = {L->y[0] * L->Ls, L->y[1] * L->Ls, L->y[2] * L->Ls};
+        L->stop = lane_geo(f, X);
+        if (!L->stop && o->adiabaticity_max > 0.0) {
             double dX[3], dp;
-            status = gcp_gc_eval(f, t, b->q, b->m, X, y[3] * c.Ps, b->mu[i], o->adiabaticity_max,
-                             dX, &dp);
+            L->stop = gcp_gc_eval(f, L->t, b->q, b->m, X, L->y[3] * L->Ps, b->mu[i],
+                                  o->adiabaticity_max, dX, &dp);
         }
-        if (status) break;
     }
-    b->x[i] = y[0] * c.Ls, b->y[i] = y[1] * c.Ls, b->z[i] = y[2] * c.Ls;
-    b->ppar[i] = y[3] * c.Ps;
-    b->t[i] = t;
     b->steps[i] += accepted;
-    return status;
+    if (L->stop && L->t <= t1) { /* stopped before (or at) t1: that state */
+        lane_put(b, i, L, L->y);
+        b->t[i] = L->t;
+        return L->stop;
+    }
+    b->t[i] = t1;
+    if (L->t == t1) {
+        lane_put(b, i, L, L->y);
+        return 0;
+    }
+    /* t1 inside the last step [ta, t]: the state there by a step from ta */
+    double ys[4], yerr[4];
+    memcpy(ys, L->ya, sizeof ys);
+    c.status = 0;
+    gsl_odeiv2_step_reset(w->step);
+    if (gsl_odeiv2_step_apply(w->step, L->ta, t1 - L->ta, ys, yerr, NULL, NULL, &sys) !=
+        GSL_SUCCESS) {
+        /* the stages were evaluated inside an accepted step: cannot fail
+         * but through the field; report it as the lane's stop */
+        L->stop = c.status ? c.status : GCP_STEP_FAILED;
+        lane_put(b, i, L, L->ya);
+        b->t[i] = L->ta;
+        return L->stop;
+    }
+    lane_put(b, i, L, ys);
+    return 0;
 }
 
 static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
@@ -140,8 +203,8 @@ static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
     const double tol = o->tolerance > 0.0 ? o->tolerance : tol_default;
     struct adaptive_ws w = {gsl_odeiv2_step_alloc(T, 4), gsl_odeiv2_control_y_new(tol, tol),
                             gsl_odeiv2_evolve_alloc(4)};
-    double *hs = malloc(b->n * sizeof(double));
-    if (!w.step || !w.ctrl || !w.ev || !hs) {
+    struct lane_state *ls = malloc(b->n * sizeof *ls);
+    if (!w.step || !w.ctrl || !w.ev || !ls) {
         for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
         n = gcp_block_retire(b, n, o->t0, 0);
     }
@@ -150,21 +213,20 @@ static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
     const int64_t chunk = every ? every : (o->nsteps > 0 ? o->nsteps : 1);
     const double t_end = o->t0 + (double)o->nsteps * o->dt;
     for (size_t i = 0; i < n; i++) {
-        hs[i] = o->dt;
         b->t[i] = o->t0;
+        lane_init(&ls[i], b, i, f, o->dt);
     }
     for (int64_t k = 0; k < o->nsteps && n > 0; k += chunk) {
         const int64_t kn = k + chunk < o->nsteps ? k + chunk : o->nsteps;
         const double t1 = kn == o->nsteps ? t_end : o->t0 + (double)kn * o->dt;
-        for (size_t i = 0; i < n; i++)
-            b->status[i] = lane_run(b, i, f, o, &w, &hs[i], t1, t_end - o->t0);
+        for (size_t i = 0; i < n; i++) b->status[i] = lane_run(b, i, f, o, &w, &ls[i], t1, t_end);
         /* retire stopped lanes, each with its own t and steps (already set) */
         size_t i = 0;
         while (i < n) {
             if (b->status[i] != GCP_ALIVE) {
                 gcp_block_swap_lanes(b, i, n - 1);
-                const double th = hs[i];
-                hs[i] = hs[n - 1], hs[n - 1] = th;
+                const struct lane_state tl = ls[i];
+                ls[i] = ls[n - 1], ls[n - 1] = tl;
                 n--;
             } else {
                 i++;
@@ -174,7 +236,7 @@ static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
         if (every && n > 0) s->fn(b, t1, s->ctx);
     }
     gsl_set_error_handler(old);
-    free(hs);
+    free(ls);
     if (w.ev) gsl_odeiv2_evolve_free(w.ev);
     if (w.ctrl) gsl_odeiv2_control_free(w.ctrl);
     if (w.step) gsl_odeiv2_step_free(w.step);

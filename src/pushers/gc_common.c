@@ -107,14 +107,34 @@ int gcp_gc_adiabaticity(const struct gcp_field *f, double t, double q, double m,
     return st;
 }
 
+int gcp_gc_has_potential(const struct gcp_field *f)
+{
+    /* the analytic models give phi with their A (gc_potential.c); a grid,
+     * an EQDSK or a callback field with E gives none (the grid's flux path
+     * of gcp_gc_potential sets phi = 0, true only without E) */
+    if (!f->has_E) return 1;
+    const struct gcp_field_type *ft = f->type;
+    return ft == &gcp_field_dipole || ft == &gcp_field_mirror || ft == &gcp_field_tokamak ||
+           ft == &gcp_field_uniform;
+}
+
 int gcp_gc_energy(const struct gcp_field *f, double t, double q, double m, const double X[3],
                   double ppar, double mu, double *H)
 {
+    /* H = gamma m c^2 + q phi needs phi wherever there is an E: without a
+     * potential it is unknown, not phi = 0 (issue 13) */
+    if (!gcp_gc_has_potential(f)) {
+        *H = NAN;
+        return GCP_ERR_UNKNOWN;
+    }
     struct gcp_field_sample s = {.need = GCP_NEED_B};
     const int st = gcp_field_eval(f, t, X, &s);
     const double Bm = sqrt(dot3(s.B, s.B));
     double A[3], phi = 0.0;
-    if (gcp_gc_potential(f, t, X, A, NULL, &phi)) phi = 0.0;
+    if (f->has_E && gcp_gc_potential(f, t, X, A, NULL, &phi)) {
+        *H = NAN;
+        return GCP_ERR_UNKNOWN;
+    }
     *H = gcp_gc_gamma(ppar, mu, Bm, m) * m * GCP_C_LIGHT * GCP_C_LIGHT + q * phi;
     return st;
 }

@@ -177,7 +177,8 @@ static int tol_list(struct gcp_section *s, struct gcp_sweep_spec *sp, struct gcp
     return 0;
 }
 
-/* reference = analytic | METHOD STEP UNIT | METHOD TOLERANCE */
+/* reference = analytic | METHOD STEP UNIT | METHOD TOLERANCE, METHOD also
+ * fo-rk8pd (the full Lorentz equations under GSL rk8pd, not a run method) */
 static int reference(const struct gcp_scene *sc, struct gcp_section *s, struct gcp_sweep_spec *sp,
                      struct gcp_error *err)
 {
@@ -210,9 +211,12 @@ static int reference(const struct gcp_scene *sc, struct gcp_section *s, struct g
         return gcp_section_error(s, "reference", err, GCP_ERR_VALUE,
                                  "expected 'analytic', 'METHOD STEP UNIT' or 'METHOD TOLERANCE', "
                                  "got '%.60s'", v);
-    if (!(sp->ref_method = gcp_pusher_lookup(tok[0])))
-        return gcp_section_error(s, "reference", err, GCP_ERR_UNKNOWN, "unknown method '%.40s'",
-                                 tok[0]);
+    sp->ref_method = strcmp(tok[0], gcp_pusher_fo_rk8pd.name) == 0 ? &gcp_pusher_fo_rk8pd
+                                                                    : gcp_pusher_lookup(tok[0]);
+    if (!sp->ref_method)
+        return gcp_section_error(s, "reference", err, GCP_ERR_UNKNOWN,
+                                 "unknown method '%.40s' (a method, or fo-rk8pd: the full "
+                                 "Lorentz equations under GSL rk8pd)", tok[0]);
     if (adaptive(sp->ref_method)) {
         double x;
         if (n != 2 || !parse_number(tok[1], &x) || !(x > 1e-16 && x < 1))
@@ -458,6 +462,7 @@ static double fo_energy(const struct gcp_field *f, double q, double m, const dou
 {
     double W = kinetic(u, m);
     if (!f->has_E) return W;
+    if (!gcp_gc_has_potential(f)) return NAN; /* E without phi: unknown, not phi = 0 */
     double A[3], phi;
     if (gcp_gc_potential(f, 0.0, x, A, NULL, &phi)) return NAN;
     return W + q * phi;
@@ -584,10 +589,21 @@ static double phase_error(double T, double P, double Pref)
     return 2.0 * GCP_PI * T * fabs(1.0 / P - 1.0 / Pref);
 }
 
-/* Keeps the value of largest magnitude (NaN never wins). */
+/* The per-row maximum over the particles.  An accumulator starts at
+ * -INFINITY ("nothing measured yet", turned into NaN by compare at the
+ * end) and keeps the value of largest magnitude, with its sign.  A NaN is
+ * the worst error, not none (issue 13): a particle whose error cannot be
+ * computed (a non-finite state, a measure it lacks) makes the row's
+ * maximum unknown, NaN, and no later value replaces it. */
 static void keep_max(double *acc, double v)
 {
-    if (isfinite(v) && (!isfinite(*acc) || fabs(v) > fabs(*acc))) *acc = v;
+    if (isnan(*acc)) return;
+    if (isnan(v) || *acc == -INFINITY || fabs(v) > fabs(*acc)) *acc = v;
+}
+
+static void finish_max(double *acc)
+{
+    if (*acc == -INFINITY) *acc = NAN;
 }
 
 static void compare(const struct gcp_scene *sc, const struct gcp_population *pop,
@@ -600,15 +616,25 @@ static void compare(const struct gcp_scene *sc, const struct gcp_population *pop
     const struct gcp_field *f = sc->field;
     const double T = sc->duration;
     const int gcmode = run->gc || ref->gc;
-    row->position_error = row->position_error_gyroradius = row->position_error_path = NAN;
-    row->gc_position_error = NAN;
-    row->gyrophase_error = row->energy_error = NAN;
-    row->bounce_phase_error = row->drift_phase_error = NAN;
-    row->mu_drift = row->K_drift = row->Lstar_drift = NAN;
+    double *const acc[] = {&row->position_error, &row->position_error_gyroradius,
+                           &row->position_error_path, &row->gc_position_error,
+                           &row->gyrophase_error, &row->energy_error,
+                           &row->bounce_phase_error, &row->drift_phase_error,
+                           &row->mu_drift, &row->K_drift, &row->Lstar_drift};
+    const size_t nacc = sizeof acc / sizeof acc[0];
+    for (size_t k = 0; k < nacc; k++) *acc[k] = -INFINITY;
     row->failed = 0;
     for (size_t j = 0; j < st->n; j++) {
         if (run->status[j] != GCP_ALIVE || ref->status[j] != GCP_ALIVE) {
             row->failed++;
+            /* Both ended the same way (e.g. both precipitated), or one is
+             * a guiding centre outside its model's validity (NONADIABATIC:
+             * not a numerical error): nothing to compare.  Otherwise the
+             * method lost (or kept) a particle the reference did not, or
+             * went non-finite: its error is unbounded, the row's is NaN. */
+            const int32_t a = run->status[j], r = ref->status[j];
+            if (a != r && a != GCP_NONADIABATIC && r != GCP_NONADIABATIC)
+                for (size_t k = 0; k < 4; k++) keep_max(acc[k], NAN);
             continue;
         }
         const double *x0 = &st->x0[3 * j], *u0 = &st->u0[3 * j];
@@ -702,6 +728,7 @@ static void compare(const struct gcp_scene *sc, const struct gcp_population *pop
             }
         }
     }
+    for (size_t k = 0; k < nacc; k++) finish_max(acc[k]);
 }
 
 /* ---- the sweep ---------------------------------------------------------- */

@@ -101,6 +101,7 @@ pcheck pere.txt electron bounce 2e-3 6
 check invp.txt proton 'L*' drift 3e-2 6
 pcheck perp.txt proton bounce 1e-1 6
 
+# (mu of a guiding-centre method: the contract, constant by construction, not a measurement)
 check invg.txt electron mu bounce 1e-12 6
 check invg.txt electron K bounce 1e-6 6
 check invg.txt proton K bounce 1e-6 6
@@ -113,4 +114,15 @@ lc=$(grep '^loss cone:' losse.txt) || die "losses.py: no loss-cone line: $(cat l
 echo "$lc" | awk '{ gsub(/[(),]/, " "); exit !($4 == 3 && $6 == 3 && $8 == 6 && $10 == 0) }' ||
     die "losses.py: $lc (the 3 electrons inside the loss cone precipitate, the 6 outside do not)"
 grep -q "^electron *PRECIPITATED *3 " losse.txt || die "losses.py: $(cat losse.txt)"
+# every dataset of the output carries its unit (issue 13), in full-orbit
+# and guiding-centre files with invariants and losses
+"$PY" - e.h5 g.h5 <<'PY' || die "datasets without a units attribute"
+import sys, h5py
+for fn in sys.argv[1:]:
+    f = h5py.File(fn, "r")
+    miss = []
+    f.visititems(lambda n, o: miss.append(n) if isinstance(o, h5py.Dataset) and "units" not in o.attrs else None)
+    assert not miss, (fn, miss)
+    assert f.attrs["duration_units"] in (b"s", "s")
+PY
 echo "ok test_analysis"

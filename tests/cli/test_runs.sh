@@ -54,6 +54,92 @@ lc = np.degrees(np.arcsin(np.sqrt(1 / 5.0)))
 assert (s[a > lc + 1] == 0).all() and (s[a < lc - 1] == 2).all(), list(zip(a.round(1), s))
 print("mirror: %d trapped, %d lost, loss cone %.2f deg" % ((s == 0).sum(), (s == 2).sum(), lc))
 PYEOF
+# /particles/final/status is an HDF5 enum (issue 13): h5dump and h5py show
+# the names, the values are the status codes
+h5dump -d /particles/final/status mirror.h5 > dump.txt 2>&1 || die "h5dump: $(head -3 dump.txt)"
+grep -q 'H5T_ENUM' dump.txt && grep -q '"LEFT_DOMAIN"' dump.txt && grep -q '"ALIVE"' dump.txt ||
+    die "status is not an enum with names: $(head -20 dump.txt)"
+"$PY" - mirror.h5 <<'PYEOF' || die "status enum: h5py"
+import sys, h5py
+ds = h5py.File(sys.argv[1], "r")["particles/final/status"]
+e = h5py.check_enum_dtype(ds.dtype)
+want = ["ALIVE", "PRECIPITATED", "LEFT_DOMAIN", "LEFT_GRID", "NONADIABATIC", "NONFINITE", "STEP_FAILED"]
+assert e and {v: k for k, v in e.items()} == dict(enumerate(want)), e
+PYEOF
+# the output says when an invariant is undefined and why (issue 13): L* in
+# the IGRF field (no vector potential), and when events come at all
+RE_ROOT=$(cd "$RUNS/.." && pwd)
+cat > igrf.run <<RUN
+[scene]
+name     = igrf-lstar
+field    = igrf
+duration = 2 s
+seed     = 5
+[field]
+file  = $RE_ROOT/fields/data/igrf14coeffs.txt
+epoch = 2020
+[particles]
+species  = proton
+count    = 2
+energy   = 1 MeV
+position = 4 0 0 RE
+pitch    = 60 deg
+[integrator]
+method = gc-rk4
+dt     = 2 ms
+[diagnostics]
+invariants = L
+events     = drift
+[output]
+file = igrf.h5
+RUN
+"$GCPUSH" --quiet igrf.run || die "igrf.run failed"
+"$PY" - igrf.h5 <<'PYEOF' || die "igrf: no word on the undefined L*"
+import sys, h5py
+f = h5py.File(sys.argv[1], "r")
+assert b"vector potential" in f["invariants/drift"].attrs["Lstar_undefined"]
+assert b"never mirrors" in f["invariants"].attrs["sampling"]
+PYEOF
+# ... and sharply (issue 13): the first-order correction to mu at the start
+# is rho |grad B| / B = (rho / Lm)^2 = 8e-4 at the field minimum (grad B and
+# the curvature vanish there), which moves sin^2 of the loss-cone angle by
+# as much: 8e-4 / sin(2 a_lc) = 1e-3 rad = 0.057 deg.  So 8 protons at
+# 0.12 deg inside (26.45 deg) all leave and 8 at 0.12 deg outside (26.68 deg)
+# all stay, whatever their gyrophase.
+cat > m2.run <<'RUN'
+[scene]
+name     = mirror-edge
+field    = mirror
+duration = 20 us
+seed     = 7
+[field]
+B0    = 1 T
+Lm    = 0.5 m
+z_max = 1 m
+[particles.in]
+species  = proton
+count    = 8
+energy   = 10 keV
+position = 0 0 0 m
+pitch    = 26.45 deg
+[particles.out]
+species  = proton
+count    = 8
+energy   = 10 keV
+position = 0 0 0 m
+pitch    = 26.68 deg
+[integrator]
+method   = boris
+dt       = 0.05 gyro
+[output]
+file = mirror2.h5
+RUN
+"$GCPUSH" --quiet m2.run || die "m2.run failed"
+"$PY" - mirror2.h5 <<'PYEOF' || die "mirror: loss-cone edge"
+import sys, h5py, numpy as np
+s = h5py.File(sys.argv[1], "r")["particles/final/status"][:]
+assert (s[:8] == 2).all() and (s[8:] == 0).all(), s
+PYEOF
 
 # dipole.run, shortened to 20 s: guiding centres with gc-gl4 (symplectic).
 # Its energy error is bounded and O(dt^4), oscillating within the bounce: at
@@ -78,6 +164,7 @@ s = f["particles/final/status"][:]
 alive = s == 0
 err = np.abs(g1 - g0)[alive] / (g0 - 1)[alive]
 assert set(s) <= {0, 1, 4}, set(s)
+# the contract, not a measurement: no guiding-centre method modifies mu
 assert (f["particles/final/mu"][:][alive] == f["particles/initial/mu"][:][alive]).all()
 assert err.max() < 1e-3, err.max()
 print("dipole (gc-gl4): max relative kinetic energy error %.2e over %d live guiding centres"

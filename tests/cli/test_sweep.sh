@@ -46,11 +46,16 @@ if "$PY" "$ROOT/analysis/work_precision.py" nothere.h5 > /dev/null 2> e.txt; the
 [ "$(wc -l < e.txt)" = 1 ] && grep -q "work_precision: error: nothere.h5: no such file" e.txt || die "$(cat e.txt)"
 
 # the invariant columns: runs/sweep-dipole-gc.run cut down to 2 protons, gc-gl2
-# and gc-rk4 at 3 steps, for 2.3 drift periods (of the first proton; about
-# 190 s, some 100 bounces), so that every particle has >= 2 drift events
-sed 's/^file = .*/file = inv.h5/; s/^duration = .*/duration = 2.3 drift/; s/^count   = 4/count   = 2/;
+# and gc-rk4 at 3 steps, for 3 drift periods (of the first proton, 84 s;
+# about 250 s, some 130 bounces), so that every particle has >= 2 drift
+# events (the second drifts in 110 s: at 2.3 periods it had one, and its
+# NaN L* drift rate was hidden by the old keep_max, issue 13)
+sed 's/^file = .*/file = inv.h5/; s/^duration = .*/duration = 3 drift/; s/^count   = 4/count   = 2/;
      s/^methods   = .*/methods   = gc-gl2 gc-rk4/; s/^dt        = .*/dt        = 0.5 0.25 0.125 gyro/;
-     /^tolerance/d' "$ROOT/runs/sweep-dipole-gc.run" > inv.run
+     s/^reference = .*/reference = gc-rk8pd 1e-12/; /^tolerance/d' "$ROOT/runs/sweep-dipole-gc.run" > inv.run
+# (the reference of the guiding-centre model itself, gc-rk8pd: the columns
+# below measure the methods' convergence, which the full-orbit reference of
+# runs/sweep-dipole-gc.run hides under the model's own O(eps) error)
 "$GCPUSH" inv.run > inv.txt 2> inv.err || die "invariant sweep failed: $(tail -2 inv.err)"
 "$PY" - <<'PY' || die "invariant columns"
 import h5py, numpy as np
@@ -64,11 +69,13 @@ for c in ("mu_drift", "K_drift", "Lstar_drift", "bounce_phase_error", "drift_pha
 # gc-gl2 carries mu as a constant: the per-bounce mu changes by round-off only
 assert np.all(vi("mu_drift") * D < 1e-12), vi("mu_drift") * D
 # K: second order, and symplectic (no secular growth): the relative change
-# over the run is small (measured 2e-7 at 0.5 gyro, ~1/30 of a bounce) and
-# falls at least like dt^2 (each halving divides it by >= 4, here allowing
-# 2.5; measured 17 and 19)
+# over the run is bounded by the amplitude of its oscillation (measured
+# 1.35e-6 at 0.5 gyro, ~1/30 of a bounce, over 3 drift periods; 2e-7 at
+# 2.3, a luckier phase: the bound is 2x the amplitude) and falls at least
+# like dt^2 (each halving divides it by >= 4, here allowing 2.5; measured
+# 570 and 8)
 K = vi("K_drift")
-assert np.all(K * D < 1e-6), K * D
+assert np.all(K * D < 3e-6), K * D
 assert np.all(K[1:] < K[:-1] / 2.5), K
 # gc-gl2 conserves p_phi in the axisymmetric dipole (discrete Noether, exact
 # by construction): L* is steady to round-off
@@ -84,6 +91,21 @@ for c in ("bounce_phase_error", "drift_phase_error"):
     assert np.all((order > 1.8) & (order < 2.2)), (c, e, order)
 # gc-rk4 is more accurate at each step
 assert np.all(col("bounce_phase_error", "gc-rk4") < vi("bounce_phase_error")), "rk4 vs vi"
+PY
+
+# a NaN is the worst error, not none (issue 13): at 2.3 drift periods the
+# second proton (drift period 110 s against the first's 84 s) has one drift
+# event, so its L* drift rate cannot be measured and neither can the
+# row's maximum -- NaN, where the old keep_max reported the first proton's
+# alone; K (two bounce events each) stays measured
+sed 's/^duration = .*/duration = 2.3 drift/; s/^methods   = .*/methods   = gc-rk4/;
+     s/^dt        = .*/dt        = 0.5 gyro/; s/^file = .*/file = nan.h5/' inv.run > nan.run
+"$GCPUSH" nan.run > nan.txt 2> nan.err || die "NaN sweep failed: $(tail -2 nan.err)"
+"$PY" - <<'PY' || die "a NaN per-particle error must make the row NaN"
+import h5py, numpy as np
+g = h5py.File("nan.h5", "r")["sweep"]
+assert np.all(np.isnan(g["Lstar_drift"][()])), g["Lstar_drift"][()]
+assert np.all(np.isfinite(g["K_drift"][()])), g["K_drift"][()]
 PY
 
 # bad [sweep] sections
@@ -105,6 +127,10 @@ sed 's/^reference = .*/reference = boris-zu 1e-3/' sw.run > case.run
 bad "reference without unit" "\[sweep\] reference: fixed-step method 'boris-zu' takes a step"
 sed 's/^reference = .*/reference = gc-rk8pd 1e-3 gyro/' sw.run > case.run
 bad "adaptive reference with a step" "\[sweep\] reference: adaptive method 'gc-rk8pd' takes a tolerance"
+sed 's/^reference = .*/reference = fo-rk8pd 1e-3 gyro/' sw.run > case.run
+bad "fo-rk8pd with a step" "\[sweep\] reference: adaptive method 'fo-rk8pd' takes a tolerance"
+sed 's/^reference = .*/reference = fo-rk9 1e-13/' sw.run > case.run
+bad "unknown reference" "\[sweep\] reference: unknown method 'fo-rk9' (a method, or fo-rk8pd"
 sed 's/^reference = .*/reference = analytic\ntolerance = 1e-8/' sw.run > case.run
 bad "tolerance without adaptive" "\[sweep\] tolerance: tolerance applies only to adaptive"
 sed 's/^reference = .*/reference = analytic\nrepeat = 3/' sw.run > case.run

@@ -38,9 +38,25 @@
  * (10 MeV proton), i.e. ~0.08 eps^2.  Particles here: a 1 MeV electron
  * (eps = 1.1e-3) and a 100 keV proton (eps = 1.1e-2) at 4 R_E: expected
  * GC error ~1e-7 and ~1e-5.  Pushers at omega_c dt = 0.05: drift-rate
- * errors <= 0.11 (omega dt)^2 = 3e-4 (test_fo_dipole.c, claim 4c).  The
- * issue's 1 % bound is ~30x the largest expected error.
+ * errors <= 0.11 (omega dt)^2 = 3e-4 (test_fo_dipole.c, claim 4c).
+ * Tolerance per pusher: drift_tol.
  * ------------------------------------------------------------------------ */
+/* Tolerance on a measured drift rate (issue 13, was 1 %): the first-order
+ * guiding-centre theory's O(eps^2) (the O(eps) part is removed by the
+ * start with the gyro-radius vector normal to grad B; 2 eps^2 leaves room
+ * for its coefficient, 0.3 measured for the proton here) plus the
+ * pusher's own drift error, c (omega dt)^2: Boris and Vay reproduce the
+ * drifts (c = 0: measured <= 4e-7 beyond the GC term), boris-zu's drifts
+ * are slow by (theta/2) cot(theta/2) = 1 - theta^2/12 (c = 1/12, the
+ * kernel's own derivation), Higuera-Cary's gyrating drifts carry
+ * ~0.11 (omega dt)^2 (measured here and in test_fo_dipole claim 4c; c =
+ * 0.12). */
+static double drift_tol(const struct gcp_pusher_type *p, double eps, double wdt)
+{
+    const double c = fo_is(p, "boris-zu") ? 1.0 / 12.0 : fo_is(p, "higuera-cary") ? 0.12 : 0.0;
+    return 2.0 * eps * eps + c * wdt * wdt;
+}
+
 struct eq_acc {
     double x0, y0, t0;
     struct fo_birkhoff b;
@@ -89,8 +105,10 @@ Test(fo_drifts, dipole_equatorial_gradB_every_pusher)
             const double rel = wd / wd_gc - 1.0;
             cr_log_info("grad-B %s %-13s: omega_d = %.6e rad/s, GC %.6e, rel %+.3e",
                         sp[i].label, pu->name, wd, wd_gc, rel);
-            cr_expect(fabs(rel) < 1e-2, "%s %s: drift rate %.6e vs GC %.6e (%.3e)", sp[i].label,
-                      pu->name, wd, wd_gc, rel);
+            const double eps = 3.0 * p / (fabs(sp[i].q) * B) / rgc; /* rho / L_B */
+            const double tol = drift_tol(pu, eps, 0.05);
+            cr_expect(fabs(rel) < tol, "%s %s: drift rate %.6e vs GC %.6e (%.3e, tolerance %.2e)",
+                      sp[i].label, pu->name, wd, wd_gc, rel, tol);
             runs++;
         }
     }
@@ -121,7 +139,8 @@ Test(fo_drifts, dipole_equatorial_gradB_every_pusher)
  * O(eps) = O(rho / R) relative at most, ~1.5e-3 here (and the
  * gyrophase-dependent part is removed by the start, file comment); the
  * pushers' O((omega dt)^2) ~ 0.1 * 0.0025 = 2.5e-4 at omega dt = 0.05.
- * The issue's 1 % bound is > 5x their sum.
+ * Measured: the GC term is ~1e-6, i.e. O(eps^2) (the gyrophase-dependent
+ * O(eps) part is removed by the start).  Tolerance per pusher: drift_tol.
  * ------------------------------------------------------------------------ */
 struct torus {
     double B0R0;
@@ -201,8 +220,10 @@ Test(fo_drifts, curvature_and_gradB_every_pusher)
                 const double rel = vd / vd_gc - 1.0;
                 cr_log_info("curvature %s pitch %2.0f %-13s: v_d = %.6e m/s, GC %.6e, rel %+.3e",
                             sp[i].label, pitches[k], pu->name, vd, vd_gc, rel);
-                cr_expect(fabs(rel) < 1e-2, "%s pitch %g %s: v_d %.6e vs GC %.6e (%.3e)",
-                          sp[i].label, pitches[k], pu->name, vd, vd_gc, rel);
+                const double eps = gam * sp[i].m * v / (fabs(sp[i].q) * sp[i].B0) / sp[i].R0;
+                const double tol = drift_tol(pu, eps, 0.05);
+                cr_expect(fabs(rel) < tol, "%s pitch %g %s: v_d %.6e vs GC %.6e (%.3e, tolerance "
+                          "%.2e)", sp[i].label, pitches[k], pu->name, vd, vd_gc, rel, tol);
                 runs++;
             }
         }

@@ -4,6 +4,7 @@
  * shared by every GC pusher (one battery). */
 #include <criterion/criterion.h>
 
+#include "gcpush/error.h"
 #include "test_gc_util.h"
 
 /* A uniform 1 mT field along z, as a user callback (no vector potential). */
@@ -201,6 +202,83 @@ Test(gc_basic, transform_round_trip)
     gcp_field_free(f);
 }
 
+/* The transform against an independent expectation, not its own inverse:
+ * the exact relativistic gyration in a uniform oblique B (1 mT along
+ * (0.1, -0.2, 0.9)), written from the solution of m d(gamma v)/dt =
+ * q v x B with signed omega = q |B| / (gamma m):
+ *   x(t) = X0 + v_par t b + R (cos(omega t) e1 - sin(omega t) e2),
+ *   v(t) = v_par b - R omega (sin(omega t) e1 + cos(omega t) e2),
+ * R = v_perp / |omega|, e2 = b x e1 (check: dv/dt = omega v x b).  Its
+ * guiding centre is X0 + v_par t b exactly (eps = 0: no correction
+ * beyond the gyroradius), p_par = gamma m v_par, mu = (gamma m v_perp)^2 /
+ * (2 m |B|).  Round-off only: |x| ~ 10 m, so 1e-13 (|X0| + R) on X (~200
+ * eps of the operands), 1e-13 relative on p_par and mu.  Both signs of
+ * charge, gamma from 1 + 1e-6 to 20, eight phases each.  And the inverse:
+ * gcp_fo_from_gc at (X0, p_par, mu) puts x on that circle (|x - X0| = R,
+ * (x - X0).b = 0) with u = gamma v gyrating the right way round:
+ * ((x - X0) x v).b has the sign of -q. */
+static double gc_norm(const double a[3]) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+
+Test(gc_basic, transform_exact_gyration)
+{
+    const double Bv[3] = {0.1e-3, -0.2e-3, 0.9e-3}, E0[3] = {0, 0, 0};
+    struct gcp_field *f = gcp_field_uniform_create(Bv, E0);
+    cr_assert_not_null(f);
+    const double Bm = gc_norm(Bv);
+    const double b[3] = {Bv[0] / Bm, Bv[1] / Bm, Bv[2] / Bm};
+    double e1[3] = {b[1], -b[0], 0.0}; /* b x zhat, normalised */
+    const double n1 = gc_norm(e1);
+    for (int d = 0; d < 3; d++) e1[d] /= n1;
+    const double e2[3] = {b[1] * e1[2] - b[2] * e1[1], b[2] * e1[0] - b[0] * e1[2],
+                          b[0] * e1[1] - b[1] * e1[0]};
+    const double X0[3] = {1.0, 2.0, 3.0};
+    const struct { double q, m, T; } sp[] = {
+        {GCP_E_CHARGE, GCP_M_PROTON, 1e3 * GCP_E_CHARGE},
+        {GCP_E_CHARGE, GCP_M_PROTON, 1e9 * GCP_E_CHARGE},
+        {-GCP_E_CHARGE, GCP_M_ELECTRON, 0.5 * GCP_E_CHARGE},
+        {-GCP_E_CHARGE, GCP_M_ELECTRON, 1e7 * GCP_E_CHARGE}};
+    for (size_t s = 0; s < sizeof sp / sizeof sp[0]; s++) {
+        const double q = sp[s].q, m = sp[s].m, p = gc_p_of_T(sp[s].T, m);
+        const double mc = m * GCP_C_LIGHT, gamma = sqrt(1 + (p / mc) * (p / mc));
+        const double a = 0.7; /* pitch angle [rad] */
+        const double v = p / (gamma * m), vpar = v * cos(a), vperp = v * sin(a);
+        const double om = q * Bm / (gamma * m), R = vperp / fabs(om);
+        const double ppar_ex = gamma * m * vpar, mu_ex = pow(gamma * m * vperp, 2) / (2 * m * Bm);
+        for (int k = 0; k < 8; k++) {
+            const double t = (0.37 + 0.83 * k) / fabs(om), c = cos(om * t), sn = sin(om * t);
+            double x[3], u[3], Xex[3], X[3], ppar, mu;
+            for (int d = 0; d < 3; d++) {
+                x[d] = X0[d] + vpar * t * b[d] + R * (c * e1[d] - sn * e2[d]);
+                u[d] = gamma * (vpar * b[d] - R * om * (sn * e1[d] + c * e2[d]));
+                Xex[d] = X0[d] + vpar * t * b[d];
+            }
+            cr_assert_eq(gcp_gc_from_fo(f, 0, q, m, x, u, X, &ppar, &mu), 0);
+            const double scale = gc_norm(Xex) + R;
+            for (int d = 0; d < 3; d++)
+                cr_assert(fabs(X[d] - Xex[d]) <= 1e-13 * scale,
+                          "species %zu phase %d: X[%d] - exact = %.3e (R = %.3e m)", s, k, d,
+                          X[d] - Xex[d], R);
+            cr_assert(fabs(ppar / ppar_ex - 1) <= 1e-13, "p_par %.3e", ppar / ppar_ex - 1);
+            cr_assert(fabs(mu / mu_ex - 1) <= 1e-13, "mu %.3e", mu / mu_ex - 1);
+        }
+        for (int k = 0; k < 4; k++) {
+            double x[3], u[3], r[3], vv[3];
+            cr_assert_eq(gcp_fo_from_gc(f, 0, q, m, X0, ppar_ex, mu_ex, 1.3 * k, x, u), 0);
+            for (int d = 0; d < 3; d++) r[d] = x[d] - X0[d], vv[d] = u[d] / gamma;
+            const double rb = r[0] * b[0] + r[1] * b[1] + r[2] * b[2];
+            cr_assert(fabs(gc_norm(r) / R - 1) <= 1e-13 && fabs(rb) <= 1e-13 * (R + gc_norm(X0)),
+                      "species %zu: |x - X0| / R - 1 = %.3e, (x - X0).b = %.3e m", s,
+                      gc_norm(r) / R - 1, rb);
+            const double rxv_b = (r[1] * vv[2] - r[2] * vv[1]) * b[0] +
+                                 (r[2] * vv[0] - r[0] * vv[2]) * b[1] +
+                                 (r[0] * vv[1] - r[1] * vv[0]) * b[2];
+            cr_assert(rxv_b * q < 0, "species %zu gyrates the wrong way round", s);
+            cr_assert(fabs((u[0] * b[0] + u[1] * b[1] + u[2] * b[2]) / (gamma * vpar) - 1) <= 1e-13);
+        }
+    }
+    gcp_field_free(f);
+}
+
 /* ---- failure paths, one battery over every GC pusher ---- */
 
 static void fill_lane(struct gcp_block *b, size_t i, const double X[3], double ppar, double mu)
@@ -372,4 +450,44 @@ Test(gc_basic, battery_step_failed_state_restored)
     gcp_field_free(cb);
     gcp_field_free(u);
     gcp_field_free(f);
+}
+
+/* E without a potential (issue 13): the energy H = gamma m c^2 + q phi is
+ * unknown there, and gcp_gc_energy says so (GCP_ERR_UNKNOWN, NaN) instead of
+ * taking phi = 0, which made a sweep's energy error that of the kinetic
+ * energy alone.  With a potential (uniform E: phi = -E.x) H is exact; without
+ * E no potential is needed. */
+static int cb_uniform_E(double t, const double x[3], struct gcp_field_sample *out, void *ctx)
+{
+    cb_uniform(t, x, out, ctx);
+    out->E[0] = 1e3;
+    return 0;
+}
+
+Test(gc_basic, energy_needs_the_potential)
+{
+    const double X[3] = {1.0, 2.0, 3.0}, q = GCP_E_CHARGE, m = GCP_M_PROTON;
+    const double ppar = 1e-21, mu = 1e-16;
+    double H;
+    struct gcp_field *fe = gcp_field_callback_create(cb_uniform_E, NULL, 1);
+    cr_assert_not_null(fe);
+    cr_assert_eq(gcp_gc_has_potential(fe), 0);
+    cr_assert_eq(gcp_gc_energy(fe, 0, q, m, X, ppar, mu, &H), GCP_ERR_UNKNOWN);
+    cr_assert(isnan(H), "H = %g with an unknown potential", H);
+    gcp_field_free(fe);
+
+    struct gcp_field *f0 = gcp_field_callback_create(cb_uniform, NULL, 0);
+    cr_assert_eq(gcp_gc_has_potential(f0), 1);
+    cr_assert_eq(gcp_gc_energy(f0, 0, q, m, X, ppar, mu, &H), 0);
+    const double g = gcp_gc_gamma(ppar, mu, 1e-3, m);
+    cr_assert(fabs(H / (g * m * GCP_C_LIGHT * GCP_C_LIGHT) - 1) < 1e-15);
+    gcp_field_free(f0);
+
+    const double B[3] = {0, 0, 1e-3}, E[3] = {1e3, 0, 0};
+    struct gcp_field *fu = gcp_field_uniform_create(B, E);
+    cr_assert_eq(gcp_gc_has_potential(fu), 1);
+    cr_assert_eq(gcp_gc_energy(fu, 0, q, m, X, ppar, mu, &H), 0);
+    const double Hex = g * m * GCP_C_LIGHT * GCP_C_LIGHT - q * E[0] * X[0]; /* phi = -E.x */
+    cr_assert(fabs(H - Hex) <= 1e-15 * fabs(Hex), "H %.17g vs %.17g", H, Hex);
+    gcp_field_free(fu);
 }

@@ -132,8 +132,12 @@ Test(stiff, force_free_0999)
             if (fo_is(p, "vay") || fo_is(p, "higuera-cary"))
                 cr_assert(rel < 1e-9, "%s omega dt = %g: force-free u drifted by %g", p->name,
                           wdt[k], rel);
-            else if (fo_is(p, "boris") && wdt[k] >= 10)
-                cr_assert(rel > 1e-3, "boris is documented to fail here (rel %g)", rel);
+            else if (wdt[k] >= 10)
+                /* boris and boris-zu share Boris's electric half-kicks: the
+                 * u- they rotate is not the force-free u, so the particle
+                 * gyrates about the drift (measured rel 7.8 and 20 at
+                 * omega dt = 10): the property is the scheme's, not the test's */
+                cr_assert(rel > 1e-3, "%s is documented to fail here (rel %g)", p->name, rel);
         }
     }
     gcp_field_free(f);
@@ -211,20 +215,52 @@ Test(stiff, dipole_centre)
                       gcp_status_name(st));
             if (st == GCP_ALIVE) cr_assert(finite3(x) && finite3(uu), "%s", p->name);
         }
-        double X[3], ppar, mu;
-        if (gcp_gc_from_fo(f, 0, q, m, xs, us, X, &ppar, &mu) == 0) {
-            struct gcp_push_opts o = {.dt = 1e-3, .nsteps = 1000, .adiabaticity_max = 0.1};
-            double t = 0;
-            int st = gcp_gc_push(f, &gcp_pusher_gc_rk4, q, m, &o, &t, X, &ppar, mu, NULL, NULL);
-            /* |B| grows as r^-3 towards the centre, so rho/L_B ~ r^2 -> 0:
-             * the centre is no null, the guiding centre stays valid and
-             * crosses it (or stops with a status), never with a NaN state */
-            cr_assert(st >= 0 && st < GCP_STATUS_COUNT);
-            if (st != GCP_NONFINITE)
-                cr_assert(finite3(X) && isfinite(ppar), "gc-rk4 %s with a NaN state",
-                          gcp_status_name(st));
-        }
     }
+    /* Guiding centre (gc-rk4), with an answer to check, not any status:
+     * on the axis (offset 0) b = -z exactly and mu = 0, so the exact GC
+     * motion is X_z = z0 - v t straight through the centre (|B| ~ r^-3 is
+     * no null: rho / L_B ~ r^2 -> 0), p_par constant; RK4 integrates a
+     * constant velocity exactly, so z is kept to round-off of the sum of
+     * steps (1000 additions of 4.3e4 m: ~1e3 eps |z| = 1e-12 relative,
+     * tolerance 1e-11).  Off the axis by 1 km, mu = p^2 sin^2(alpha)/(2 m B)
+     * is small but not zero: the particle mirrors where |B| = p^2/(2 m mu)
+     * (562 T, ~31 km from the centre), comes back with p_par reversed and
+     * its kinetic energy kept, i.e. gamma(p_par, mu, |B(X)|) = gamma0.
+     * At dt = 1e-6 s (43 m steps against the 10 km scale of |B| at the
+     * mirror: rho_B = r/3) RK4's energy error is ~(43 m / 10 km)^4 = 3e-10;
+     * tolerance 1e-8.  (At dt = 1e-3 s, 44 km steps over a 31 km mirror,
+     * gc-rk4 comes back ALIVE with 2.4 times the momentum: a fixed step
+     * that does not resolve the motion is not detected -- see issue 13's
+     * note; the test does not cover that case.) */
+    double X[3], ppar, mu;
+    const double xs0[3] = {0, 0, 2 * GCP_EARTH_RADIUS}, us0[3] = {0, 0, -u};
+    cr_assert_eq(gcp_gc_from_fo(f, 0, q, m, xs0, us0, X, &ppar, &mu), 0);
+    cr_assert_eq(mu, 0.0, "on the axis mu = %g", mu);
+    struct gcp_push_opts o = {.dt = 1e-3, .nsteps = 1000, .adiabaticity_max = 0.1};
+    double t = 0;
+    int st = gcp_gc_push(f, &gcp_pusher_gc_rk4, q, m, &o, &t, X, &ppar, mu, NULL, NULL);
+    cr_assert_eq(st, GCP_ALIVE, "gc-rk4 on the axis: %s", gcp_status_name(st));
+    const double v = u / sqrt(1 + u * u / (FO_C * FO_C));
+    const double zex = xs0[2] - v * t;
+    cr_assert(X[0] == 0 && X[1] == 0 && fabs(X[2] - zex) < 1e-11 * fabs(zex),
+              "on the axis: X = (%g %g %.15g), exact z = %.15g", X[0], X[1], X[2], zex);
+    cr_assert(fabs(ppar - m * u) < 1e-14 * m * u, "p_par changed: %g vs %g", ppar, m * u);
+
+    const double xs1[3] = {1e3, 0, 2 * GCP_EARTH_RADIUS};
+    cr_assert_eq(gcp_gc_from_fo(f, 0, q, m, xs1, us0, X, &ppar, &mu), 0);
+    cr_assert(mu > 0 && ppar > 0, "off the axis: mu %g p_par %g", mu, ppar);
+    struct gcp_field_sample s0 = {.need = GCP_NEED_B};
+    cr_assert_eq(gcp_field_eval(f, 0, X, &s0), 0);
+    const double g0 = gcp_gc_gamma(ppar, mu, fo_norm(s0.B), m);
+    struct gcp_push_opts o1 = {.dt = 1e-6, .nsteps = 600000, .adiabaticity_max = 0.1};
+    t = 0;
+    st = gcp_gc_push(f, &gcp_pusher_gc_rk4, q, m, &o1, &t, X, &ppar, mu, NULL, NULL);
+    cr_assert_eq(st, GCP_ALIVE, "gc-rk4 off the axis: %s", gcp_status_name(st));
+    cr_assert(ppar < 0 && X[2] > GCP_EARTH_RADIUS, "not mirrored: p_par %g z %g", ppar, X[2]);
+    struct gcp_field_sample s1 = {.need = GCP_NEED_B};
+    cr_assert_eq(gcp_field_eval(f, t, X, &s1), 0);
+    const double g1 = gcp_gc_gamma(ppar, mu, fo_norm(s1.B), m);
+    cr_assert(fabs(g1 / g0 - 1) < 1e-8, "energy after the mirror: gamma %.15g vs %.15g", g1, g0);
     gcp_field_free(f);
 }
 
@@ -269,27 +305,51 @@ Test(stiff, leaves_grid)
 
 /* ---- guiding centre with a step far above the gyro period ---------------- */
 
+/* Dipole L of a point: r = L R_E cos^2(latitude). */
+static double dipole_L(const double X[3])
+{
+    const double r = fo_norm(X);
+    return r * r * r / ((X[0] * X[0] + X[1] * X[1]) * GCP_EARTH_RADIUS);
+}
+
+/* 1 keV electrons at L = 4 with dt = 1000 gyro periods: the guiding centre
+ * needs the bounce resolved, not the gyration (T_b / T_g = 5.5e4 .. 8.3e4
+ * here, so 55..83 steps per bounce).  Over two bounce periods the exact GC
+ * motion keeps the field line (in a dipole the drift is azimuthal: L is
+ * constant) and the energy.  RK4's local error is ~(omega_b h)^5 / 5! of
+ * the orbit's scale, omega_b h = 2 pi / 55 = 0.114: 1.6e-7 per step,
+ * ~2e-5 after 2 x 55 steps: tolerance 2e-5 on dL/L and dgamma/gamma
+ * (measured 5e-6 and 4e-8 at pitch 0.3 rad).  (At 1e4 gyro periods, 5..8
+ * steps per bounce, gc-rk4 returns ALIVE with L off by O(1): an unresolved
+ * fixed step is not detected -- see issue 13's note.) */
 Test(stiff, gc_huge_dt)
 {
     struct gcp_field *f = gcp_field_dipole_create(GCP_EARTH_B0, 0, GCP_EARTH_RADIUS + 1e5,
                                                   15 * GCP_EARTH_RADIUS);
     const double m = GCP_M_ELECTRON, q = -GCP_E_CHARGE;
-    const double u = fo_u_of_ekin(FO_MEV, m);
+    const double u = fo_u_of_ekin(FO_KEV, m);
     const double pitch[] = {0.3, 0.8, 1.4};
     for (int k = 0; k < 3; k++) {
         const double x0[3] = {4 * GCP_EARTH_RADIUS, 0, 0};
         const double u0[3] = {0, u * sin(pitch[k]), u * cos(pitch[k])};
-        double X[3], ppar, mu, Tg;
+        double X[3], ppar, mu, Tg, Tb;
         cr_assert_eq(gcp_gc_from_fo(f, 0, q, m, x0, u0, X, &ppar, &mu), 0);
         struct gcp_species sp = {"electron", q, m};
         cr_assert_eq(gcp_period_of(f, "dipole", &sp, x0, u0, GCP_PERIOD_GYRO, &Tg), 0);
-        struct gcp_push_opts o = {.dt = 1e4 * Tg, .nsteps = 50};
+        cr_assert_eq(gcp_period_of(f, "dipole", &sp, x0, u0, GCP_PERIOD_BOUNCE, &Tb), 0);
+        cr_assert_gt(Tb / Tg, 5e4, "bounce not slow enough: T_b/T_g = %g", Tb / Tg);
+        struct gcp_field_sample s = {.need = GCP_NEED_B};
+        cr_assert_eq(gcp_field_eval(f, 0, X, &s), 0);
+        const double g0 = gcp_gc_gamma(ppar, mu, fo_norm(s.B), m), L0 = dipole_L(X);
+        struct gcp_push_opts o = {.dt = 1e3 * Tg, .nsteps = (int64_t)(2 * Tb / (1e3 * Tg))};
         double t = 0;
         int st = gcp_gc_push(f, &gcp_pusher_gc_rk4, q, m, &o, &t, X, &ppar, mu, NULL, NULL);
-        cr_assert(st >= 0 && st < GCP_STATUS_COUNT);
-        if (st == GCP_ALIVE) cr_assert(finite3(X) && isfinite(ppar), "ALIVE but not finite");
-        if (st != GCP_NONFINITE) cr_assert(finite3(X) && isfinite(ppar), "%s with a NaN state",
-                                           gcp_status_name(st));
+        cr_assert_eq(st, GCP_ALIVE, "pitch %g: %s", pitch[k], gcp_status_name(st));
+        cr_assert_eq(gcp_field_eval(f, t, X, &s), 0);
+        const double dg = gcp_gc_gamma(ppar, mu, fo_norm(s.B), m) / g0 - 1;
+        const double dL = dipole_L(X) / L0 - 1;
+        cr_assert(fabs(dL) < 2e-5 && fabs(dg) < 2e-5, "pitch %g: dL/L %g, dgamma/gamma %g",
+                  pitch[k], dL, dg);
     }
     gcp_field_free(f);
 }
