@@ -117,6 +117,16 @@ int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct 
     return 0;
 }
 
+/* Bytes from the current position to the end of the file; -1 on error. */
+static int64_t bytes_left(FILE *fp)
+{
+    const long here = ftell(fp);
+    if (here < 0 || fseek(fp, 0, SEEK_END) != 0) return -1;
+    const long end = ftell(fp);
+    if (end < 0 || fseek(fp, here, SEEK_SET) != 0) return -1;
+    return (int64_t)end - (int64_t)here;
+}
+
 int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp_results *r,
                         struct gcp_error *err)
 {
@@ -128,16 +138,25 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
     struct gcp_results part;
     gcp_results_init(&part, r->S, r->gc);
     int bad = read_header(fp, &text, &path, &S, &rows, &cpu);
-    bad = bad || strcmp(text, sc->text) != 0 || S != r->S || gcp_results_reserve(&part, rows);
+    bad = bad || strcmp(text, sc->text) != 0 || S != r->S;
+    /* every size read from the file is checked against what the file holds
+     * and what the run has, before anything is allocated for it */
+    int64_t left = bad ? 0 : bytes_left(fp);
     if (!bad) {
         struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
         const size_t nc = gcp_results_columns(&part, c);
+        int64_t row_bytes = 0;
+        for (size_t k = 0; k < nc; k++) row_bytes += c[k].per_row * (int64_t)c[k].elem;
+        bad = rows > sc->total || left < 0 || rows > left / row_bytes ||
+              gcp_results_reserve(&part, rows);
         for (size_t k = 0; k < nc && !bad; k++)
             bad = get(fp, *c[k].data, (size_t)rows * (size_t)c[k].per_row * c[k].elem);
+        left -= rows * row_bytes;
         part.n = rows;
         part.rank_cpu = cpu;
         int64_t nev = -1;
-        bad = bad || get(fp, &nev, sizeof nev) || nev < 0 || nev > ((int64_t)1 << 40);
+        bad = bad || get(fp, &nev, sizeof nev) || nev < 0 ||
+              nev > (left - (int64_t)sizeof nev) / (int64_t)sizeof(struct gcp_event);
         for (int64_t k = 0; k < nev && !bad; k++) {
             struct gcp_event e;
             bad = get(fp, &e, sizeof e) || gcp_events_push(&part.ev, &e);

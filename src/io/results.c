@@ -1,6 +1,7 @@
 /* Per-rank result rows: grown by chunk, sorted by id before writing,
  * saved to and loaded from checkpoints.  Every operation walks one table of
  * columns, so a new column is one line. */
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -54,11 +55,16 @@ void gcp_results_init(struct gcp_results *r, int64_t samples, int gc)
 
 int gcp_results_reserve(struct gcp_results *r, int64_t more)
 {
+    /* `more` may come from a file (a checkpoint): no doubling or byte count
+     * may overflow, whatever its value */
+    if (more < 0 || more > INT64_MAX / 4 - r->n) return GCP_ERR_NOMEM;
     if (r->n + more <= r->cap) return 0;
     int64_t cap = r->cap ? r->cap : 256;
     while (cap < r->n + more) cap *= 2;
     struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(r, c);
+    for (size_t k = 0; k < nc; k++)
+        if ((uint64_t)cap > SIZE_MAX / ((size_t)c[k].per_row * c[k].elem)) return GCP_ERR_NOMEM;
     for (size_t k = 0; k < nc; k++) {
         void *p = realloc(*c[k].data, (size_t)cap * (size_t)c[k].per_row * c[k].elem);
         if (!p) return GCP_ERR_NOMEM;

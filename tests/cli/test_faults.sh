@@ -1,0 +1,72 @@
+#!/bin/sh
+# Faults and hostile input lose nothing (issue 15): crafted checkpoints,
+# output paths, long lines, large run files, disk full, stale temporaries.
+# Each case: a clear message, a non-zero exit, nothing half-written.
+set -u
+. "$(dirname "$0")/lib.sh"
+cd "$TMP"
+
+# 128 protons in the mirror (2 chunks of 64), no trajectory: rows of 160 bytes
+cat > ck.run <<'RUN'
+[scene]
+name     = ck
+field    = mirror
+duration = 1 us
+seed     = 7
+[field]
+B0    = 1 T
+Lm    = 0.5 m
+z_max = 1 m
+[particles]
+species  = proton
+count    = 128
+energy   = 10 keV
+position = 0 0 0 m
+pitch    = 5 deg .. 90 deg
+[integrator]
+method   = boris
+dt       = 0.05 gyro
+[output]
+file       = ck.h5
+RUN
+
+# ckpt FILE ROWS FIRST_ID NWRITTEN: a checkpoint of ck.run claiming ROWS rows,
+# holding NWRITTEN rows with ids FIRST_ID.. (all columns but id and pop zero)
+ckpt() {
+    "$PY" - "$@" <<'PY'
+import struct, sys
+out, rows, first, nw = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+text = open("ck.run", "rb").read()
+b = b"GCPCKPT2" + struct.pack("=qqq", 0, rows, len(text)) + text
+b += struct.pack("=q", 6) + b"ck.run" + struct.pack("=d", 0.0)
+cols = [("q", 1), ("i", 1), ("d", 3), ("d", 3), ("d", 1), ("d", 3), ("d", 3),
+        ("i", 1), ("q", 1), ("d", 1), ("d", 1), ("d", 1), ("d", 1)]
+for k, (f, per) in enumerate(cols):
+    for r in range(nw):
+        v = first + r if k == 0 else 0
+        b += struct.pack("=" + f * per, *([v] * per))
+b += struct.pack("=q", 0)
+open(out, "wb").write(b)
+PY
+}
+
+# restart_fails WHAT: --restart ck.h5 must fail (exit 1) within 20 s with a
+# message naming the checkpoint, and leave no output
+restart_fails() {
+    timeout -s KILL 20 "$GCPUSH" --quiet --restart ck.h5 > out.txt 2> err.txt
+    rc=$?
+    [ $rc = 1 ] || die "$1: exit status $rc, not 1: $(cat err.txt)"
+    grep -q "$2" err.txt || die "$1: message '$(cat err.txt)' does not say '$2'"
+    [ -f ck.h5 ] && die "$1: an output file was written"
+    rm -f ck.h5.ckpt.*
+}
+
+# 2. sizes read from a checkpoint are checked before any allocation
+ckpt ck.h5.ckpt.0 9223372036854775807 0 0
+restart_fails "row count 2^63-1" "ck.h5.ckpt.0"
+ckpt ck.h5.ckpt.0 4611686018427387904 0 0
+restart_fails "row count 2^62" "ck.h5.ckpt.0"
+ckpt ck.h5.ckpt.0 200 0 64
+restart_fails "more rows than the run has particles" "ck.h5.ckpt.0"
+
+echo "ok test_faults"
