@@ -9,6 +9,7 @@
  * failed (I/O), 2 bad usage or a bad run file, 3 interrupted (SIGINT,
  * SIGTERM or SIGUSR1: a checkpoint was written).  Messages come from rank 0 only, one
  * line each, naming file, line and key. */
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -118,6 +119,42 @@ static void chunk_done(void *vctx, struct gcp_results *res, int64_t particles, i
     }
 }
 
+/* The first error of the lowest failing rank, on every rank (so rank 0,
+ * which prints, says what went wrong where).  Returns whether any failed. */
+static int agree_error(int failed, struct gcp_error *err, MPI_Comm comm)
+{
+    int me, who;
+    MPI_Comm_rank(comm, &me);
+    int mine = failed ? me : INT_MAX;
+    MPI_Allreduce(&mine, &who, 1, MPI_INT, MPI_MIN, comm);
+    if (who == INT_MAX) return 0;
+    MPI_Bcast(err, (int)sizeof *err, MPI_BYTE, who, comm);
+    if (!err->code) err->code = GCP_ERR_IO;
+    return 1;
+}
+
+/* After restart_load's dedup (rows sorted by id, each once, each chunk on one
+ * rank): every chunk held must be whole, since gcpush checkpoints only whole
+ * chunks; a chunk with holes would come out as rows of id 0, t 0, ALIVE. */
+static int chunks_whole(const struct gcp_scene *sc, const struct gcp_results *res,
+                        struct gcp_error *err)
+{
+    for (int64_t i = 0; i < res->n;) {
+        const int64_t c = gcp_scene_chunk_of(sc, res->id[i]);
+        int64_t j = i + 1, first, count;
+        while (j < res->n && gcp_scene_chunk_of(sc, res->id[j]) == c) j++;
+        gcp_scene_chunk(sc, c, &first, &count);
+        if (j - i != count)
+            return gcp_error_set(err, GCP_ERR_IO,
+                                 "%s.ckpt.*: particles %lld .. %lld (one chunk): %lld of %lld in "
+                                 "the checkpoints; they are corrupt (remove them to start over)",
+                                 sc->output, (long long)first, (long long)(first + count - 1),
+                                 (long long)(j - i), (long long)count);
+        i = j;
+    }
+    return 0;
+}
+
 /* On restart: load the checkpoints (file i on rank i % nranks), keep one copy
  * of each chunk (the lowest rank holding it), and list the chunks left. */
 static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, char **files,
@@ -127,9 +164,7 @@ static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, cha
     int rc = 0;
     for (size_t i = (size_t)me; i < nfiles && !rc; i += (size_t)nranks)
         rc = gcp_checkpoint_load(files[i], sc, res, err);
-    int bad = rc != 0;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (bad) return rc ? rc : GCP_ERR_IO;
+    if (agree_error(rc != 0, err, comm)) return err->code;
     const int64_t nchunks = gcp_scene_chunk_count(sc);
     /* owner[c] = lowest rank holding chunk c, or nranks when nobody does */
     int *owner = malloc((size_t)nchunks * sizeof *owner);
@@ -150,6 +185,10 @@ static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, cha
     for (int64_t i = 0; i < res->n; i++) keep[i] = i == 0 || res->id[i] != res->id[i - 1];
     gcp_results_drop(res, keep);
     free(keep);
+    if (agree_error(chunks_whole(sc, res, err) != 0, err, comm)) {
+        free(owner);
+        return err->code;
+    }
     *ntodo = 0;
     *todo = malloc((size_t)(nchunks ? nchunks : 1) * sizeof **todo);
     if (!*todo) {

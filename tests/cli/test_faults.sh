@@ -69,4 +69,7 @@ restart_fails "row count 2^62" "ck.h5.ckpt.0"
 ckpt ck.h5.ckpt.0 200 0 64
 restart_fails "more rows than the run has particles" "ck.h5.ckpt.0"
 
+# 9. a chunk with missing particles: the restart fails saying which
+ckpt ck.h5.ckpt.0 63 0 63
+restart_fails "a chunk missing a particle" "particles 0 \.\. 63"
 echo "ok test_faults"
