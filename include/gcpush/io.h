@@ -70,6 +70,9 @@ int gcp_checkpoint_write(const struct gcp_scene *sc, struct gcp_results *r, int 
                          struct gcp_error *err);
 /* The checkpoint files of output path `output` (malloc'ed array of strdup'ed names). */
 int gcp_checkpoint_list(const char *output, char ***files, size_t *n);
+/* The temporaries an interrupted run of `output` left: OUT.tmp-PID (the
+ * output write) and OUT.ckpt.N.tmp (a checkpoint write); same conventions. */
+int gcp_output_stale_list(const char *output, char ***files, size_t *n);
 /* The run file text and path a checkpoint was made from (malloc'ed). */
 int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct gcp_error *err);
 /* Appends a checkpoint's rows to r (after checking it belongs to sc). */

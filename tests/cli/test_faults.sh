@@ -72,4 +72,18 @@ restart_fails "more rows than the run has particles" "ck.h5.ckpt.0"
 # 9. a chunk with missing particles: the restart fails saying which
 ckpt ck.h5.ckpt.0 63 0 63
 restart_fails "a chunk missing a particle" "particles 0 \.\. 63"
+# 4. clean-up deletes exactly the checkpoints: not OUT.ckpt.0.bak, and an
+# output name with glob characters matches itself only
+ckpt ck.h5.ckpt.0 64 0 64
+echo keep > ck.h5.ckpt.0.bak
+"$GCPUSH" --quiet --restart ck.h5 || die "restart from one whole chunk failed"
+[ -f ck.h5.ckpt.0 ] && die "the checkpoint was left after a finished run"
+[ -f ck.h5.ckpt.0.bak ] || die "clean-up deleted ck.h5.ckpt.0.bak"
+sed 's/^file       = ck.h5/file       = c*.h5\ncheckpoint = 1 ms/' ck.run > glob.run
+echo keep > ck.h5.ckpt.1
+"$GCPUSH" --quiet glob.run || die "a run writing 'c*.h5' failed"
+[ -f 'c*.h5' ] || die "no output 'c*.h5'"
+[ -f ck.h5.ckpt.1 ] || die "clean-up of 'c*.h5' deleted ck.h5.ckpt.1"
+rm -f ck.h5 ck.h5.ckpt.* 'c*.h5'
+
 echo "ok test_faults"
