@@ -367,6 +367,16 @@ int main(int argc, char **argv)
             MPI_Finalize();
             return EXIT_RUN_FAILED;
         }
+        /* what a run killed while writing left behind (a 1.8 GB output
+         * temporary once): this restart writes its own, so remove them */
+        char **stale;
+        size_t nstale;
+        if (me == 0 && gcp_output_stale_list(sc->output, &stale, &nstale) == 0) {
+            for (size_t i = 0; i < nstale; i++)
+                if (remove(stale[i]) == 0 && !quiet)
+                    printf("restart: removed %s, left by the interrupted run\n", stale[i]);
+            free_list(stale, nstale);
+        }
         int64_t have = res.n;
         MPI_Allreduce(MPI_IN_PLACE, &have, 1, MPI_INT64_T, MPI_SUM, comm);
         ctx.total = sc->total - have;

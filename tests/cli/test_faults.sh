@@ -86,4 +86,15 @@ echo keep > ck.h5.ckpt.1
 [ -f ck.h5.ckpt.1 ] || die "clean-up of 'c*.h5' deleted ck.h5.ckpt.1"
 rm -f ck.h5 ck.h5.ckpt.* 'c*.h5'
 
+# 10. a restart removes the temporaries a killed run left (output and checkpoint)
+ckpt ck.h5.ckpt.0 64 0 64
+head -c 100000 /dev/zero > ck.h5.tmp-99999
+echo x > ck.h5.ckpt.3.tmp
+echo keep > ck.h5.tmp-99999.mine
+"$GCPUSH" --restart ck.h5 > out.txt || die "restart with stale temporaries failed"
+[ -f ck.h5.tmp-99999 ] && die "the stale output temporary survived the restart"
+[ -f ck.h5.ckpt.3.tmp ] && die "the stale checkpoint temporary survived the restart"
+[ -f ck.h5.tmp-99999.mine ] || die "the restart removed ck.h5.tmp-99999.mine"
+grep -q "removed ck.h5.tmp-99999" out.txt || die "the restart did not say what it removed: $(cat out.txt)"
+rm -f ck.h5 ck.h5.tmp-99999.mine
 echo "ok test_faults"
