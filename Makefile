@@ -124,7 +124,7 @@ $(UNIT): $(TEST_OBJ) $(LIBA)
 # The README's commands: install, build, then the work.
 run: deps
 	@$(MAKE) --no-print-directory build
-	./$(BIN) runs/dipole.run
+	./$(BIN) --force runs/dipole.run
 	$(PY) analysis/plot_orbits.py dipole.h5 -o dipole.png --max 12
 	@echo "output: $$(pwd)/dipole.h5   plot: $$(pwd)/dipole.png"
 

@@ -1,6 +1,7 @@
 /* gcpush -- command line.
  *
- *   gcpush [--quiet] FILE.run     run the scene, write its HDF5 output
+ *   gcpush [--quiet] [--force] FILE.run  run the scene, write its HDF5 output
+ *                                 (--force: replace an existing output)
  *   gcpush --check FILE.run       validate the run file, run nothing
  *   gcpush --restart OUT.h5       continue a killed or interrupted run from its checkpoints
  *   gcpush --help | --version
@@ -45,9 +46,10 @@ static void on_signal(int sig)
 static void usage(FILE *to)
 {
     fprintf(to,
-            "usage: gcpush [--quiet] FILE.run     run a scene, write its HDF5 output\n"
+            "usage: gcpush [--quiet] [--force] FILE.run  run a scene, write its HDF5 output\n"
+            "                                     (--force: replace an existing output file)\n"
             "       gcpush --check FILE.run       validate a run file without running it\n"
-            "       gcpush --restart OUT.h5       continue an interrupted run from its checkpoints\n"
+            "       gcpush [--force] --restart OUT.h5  continue an interrupted run from its checkpoints\n"
             "       gcpush grid FILE.run          sample a field onto a grid file (fields/README.md)\n"
             "       gcpush --help | --version\n"
             "under MPI: mpirun -np N gcpush FILE.run (one output file, same result for any N)\n\n");
@@ -262,7 +264,7 @@ int main(int argc, char **argv)
     MPI_Comm_rank(comm, &me);
     MPI_Comm_size(comm, &nranks);
 
-    int check = 0, quiet = 0, restart = 0;
+    int check = 0, quiet = 0, restart = 0, force = 0;
     const char *arg = NULL;
     if (argc == 3 && strcmp(argv[1], "grid") == 0) {
         struct gcp_error gerr = {0};
@@ -291,6 +293,8 @@ int main(int argc, char **argv)
             quiet = 1;
         } else if (strcmp(argv[i], "--restart") == 0) {
             restart = 1;
+        } else if (strcmp(argv[i], "--force") == 0) {
+            force = 1;
         } else if (argv[i][0] == '-' || arg) {
             if (me == 0) {
                 fprintf(stderr, "gcpush: unexpected argument '%s'\n", argv[i]);
@@ -339,7 +343,15 @@ int main(int argc, char **argv)
         MPI_Finalize();
         return 0;
     }
-    if ((rc = gcp_output_probe(sc, comm, &err))) {
+    /* an existing output is replaced only when asked: found at the end of
+     * a long run, a finished result was overwritten without a word */
+    int exists = me == 0 && !force && access(sc->output, F_OK) == 0;
+    MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
+    if (exists)
+        rc = gcp_error_set(&err, GCP_ERR_VALUE,
+                           "%s: [output] file: '%s' exists: remove it or run with --force to "
+                           "replace it", sc->path, sc->output);
+    if (rc || (rc = gcp_output_probe(sc, comm, &err))) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", err.msg);
         gcp_scene_free(sc);
         free_list(files, nfiles);

@@ -97,4 +97,24 @@ echo keep > ck.h5.tmp-99999.mine
 [ -f ck.h5.tmp-99999.mine ] || die "the restart removed ck.h5.tmp-99999.mine"
 grep -q "removed ck.h5.tmp-99999" out.txt || die "the restart did not say what it removed: $(cat out.txt)"
 rm -f ck.h5 ck.h5.tmp-99999.mine
+# 7. output paths refused before anything runs, naming file, line and key
+for f in self '' . sub/ sub; do
+    mkdir -p sub
+    name=$f
+    [ "$f" = self ] && name=bad.run
+    sed "s|^file       = ck.h5|file       = $name|" ck.run > bad.run
+    cp bad.run bad.orig
+    "$GCPUSH" --check bad.run > out.txt 2> err.txt && die "--check accepted 'file = $name'"
+    grep -q "bad.run:20: \[output\] file" err.txt || die "'file = $name': $(cat err.txt)"
+    "$GCPUSH" --quiet bad.run 2> err.txt && die "a run with 'file = $name' exited 0"
+    cmp -s bad.run bad.orig || die "'file = $name' changed the run file"
+done
+# an existing output is replaced only with --force
+echo "a finished result" > ck.h5
+"$GCPUSH" --quiet ck.run 2> err.txt && die "a run replaced an existing output without --force"
+grep -q "ck.h5' exists.*--force" err.txt || die "existing output: $(cat err.txt)"
+[ "$(cat ck.h5)" = "a finished result" ] || die "the existing output was changed"
+"$GCPUSH" --quiet --force ck.run || die "--force did not replace the output"
+h5dump -H ck.h5 > /dev/null || die "--force did not write an HDF5 output"
+rm -f ck.h5
 echo "ok test_faults"
