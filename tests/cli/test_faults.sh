@@ -117,4 +117,19 @@ grep -q "ck.h5' exists.*--force" err.txt || die "existing output: $(cat err.txt)
 "$GCPUSH" --quiet --force ck.run || die "--force did not replace the output"
 h5dump -H ck.h5 > /dev/null || die "--force did not write an HDF5 output"
 rm -f ck.h5
+# 8. a line longer than 199 characters is rejected, not cut (it gave seed 7);
+# blanks before a long comment are no content
+pad=$(printf '%250s' '')
+sed "s/^seed     = 7$/seed     = 7${pad}99/" ck.run > long.run
+"$GCPUSH" --check long.run > out.txt 2> err.txt && die "a 260-character line was accepted: $(cat out.txt)"
+grep -q "long.run:5: line longer than 199" err.txt || die "long line: $(cat err.txt)"
+sed "s/^seed     = 7$/seed     = 7${pad}# ${pad}/" ck.run > long.run
+"$GCPUSH" --check long.run > /dev/null 2> err.txt || die "blanks and a long comment rejected: $(cat err.txt)"
+# 11. CR-only line ends read as lines; a section given twice is an error
+tr '\n' '\r' < ck.run > cr.run
+"$GCPUSH" --check cr.run > out.txt 2> err.txt || die "CR-only line ends: $(cat err.txt)"
+grep -q "ok: 128 particles" out.txt || die "CR-only line ends: $(cat out.txt)"
+printf '[field]\nB1 = 2 T\n' >> ck.run.dup && cat ck.run ck.run.dup > dup.run
+"$GCPUSH" --check dup.run > out.txt 2> err.txt && die "a second [field] section was merged"
+grep -q "dup.run:21: \[field\]: section given twice (first on line 6)" err.txt || die "duplicate section: $(cat err.txt)"
 echo "ok test_faults"
