@@ -34,9 +34,9 @@ RUN
 # holding NWRITTEN rows with ids FIRST_ID.. (all columns but id and pop zero)
 ckpt() {
     "$PY" - "$@" <<'PY'
-import struct, sys
+import os, struct, sys
 out, rows, first, nw = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-text = open("ck.run", "rb").read()
+text = open(os.environ.get("RUN", "ck.run"), "rb").read()
 b = b"GCPCKPT2" + struct.pack("=qqq", 0, rows, len(text)) + text
 b += struct.pack("=q", 6) + b"ck.run" + struct.pack("=d", 0.0)
 cols = [("q", 1), ("i", 1), ("d", 3), ("d", 3), ("d", 1), ("d", 3), ("d", 3),
@@ -132,4 +132,24 @@ grep -q "ok: 128 particles" out.txt || die "CR-only line ends: $(cat out.txt)"
 printf '[field]\nB1 = 2 T\n' >> ck.run.dup && cat ck.run ck.run.dup > dup.run
 "$GCPUSH" --check dup.run > out.txt 2> err.txt && die "a second [field] section was merged"
 grep -q "dup.run:21: \[field\]: section given twice (first on line 6)" err.txt || die "duplicate section: $(cat err.txt)"
+# 3. a 1 MB run file (7000 comment lines): stored whole in the output
+# (attribute run_file, dense storage), through a run and a restart
+"$PY" -c "
+import sys
+t = open('ck.run').read().replace('ck.h5', 'big.h5')
+open('big.run', 'w').write(t + ''.join('# %05d %s\\n' % (i, 'x' * 140) for i in range(7000)))"
+[ "$(wc -c < big.run)" -gt 1000000 ] || die "big.run is not over 1 MB"
+"$GCPUSH" --quiet big.run 2> err.txt || die "a 1 MB run file: $(cat err.txt)"
+same_text() {
+    "$PY" -c "
+import h5py, sys
+a = h5py.File('big.h5', 'r').attrs['run_file']
+a = a.decode() if isinstance(a, bytes) else str(a)
+sys.exit(a != open('big.run').read())" || die "$1: big.h5's run_file is not big.run's text"
+}
+same_text "run"
+rm big.h5
+RUN=big.run ckpt big.h5.ckpt.0 64 0 64
+"$GCPUSH" --quiet --restart big.h5 2> err.txt || die "restart of a 1 MB run file: $(cat err.txt)"
+same_text "restart"
 echo "ok test_faults"
