@@ -6,10 +6,13 @@
  * one collective H5Dwrite per dataset puts every row in place.  The file is
  * written under a temporary name and renamed by rank 0 only when every rank
  * succeeded; otherwise the temporary file is removed. */
+#define _GNU_SOURCE /* fallocate (Linux) */
 #include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <hdf5.h>
@@ -429,6 +432,47 @@ static void write_timing(struct writer *w, MPI_Comm comm, int me, int nranks)
     H5Gclose(g);
 }
 
+/* An upper bound of the output's size: every column uncompressed (deflate
+ * never grows a chunk by more than ~0.1%), the event tables, and room for
+ * metadata and chunk indices. */
+static int64_t size_bound(const struct gcp_results *r, int64_t total, MPI_Comm comm)
+{
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns((struct gcp_results *)r, c);
+    int64_t row = 32 + 3 * 8; /* species, charge, mass, dt */
+    for (size_t k = 0; k < nc; k++) row += c[k].per_row * (int64_t)c[k].elem;
+    int64_t ev = r->ev.n;
+    MPI_Allreduce(MPI_IN_PLACE, &ev, 1, MPI_INT64_T, MPI_SUM, comm);
+    const double raw = (double)total * (double)row + (double)ev * (double)sizeof(struct gcp_event);
+    return (int64_t)(raw * 1.02) + (4 << 20);
+}
+
+/* Reserves the output's disk space before anything is written (rank 0,
+ * fallocate with the file size kept, so HDF5 sees its file unchanged and
+ * trims what is left over at close).  A full disk in the middle of a
+ * collective write left ranks out of step in HDF5 (a hang on 2 ranks, a
+ * crash at MPI_Finalize on 1); refused here, every rank decides together
+ * before the first write.  A file system without fallocate is not checked.
+ * Returns 0, or errno's ENOSPC-like code (the same on every rank). */
+static int reserve_space(const char *tmp, int64_t bytes, MPI_Comm comm)
+{
+    int me, code = 0;
+    MPI_Comm_rank(comm, &me);
+    if (me == 0) {
+        const int fd = open(tmp, O_WRONLY);
+        if (fd < 0) {
+            code = errno;
+        } else {
+            if (fallocate(fd, FALLOC_FL_KEEP_SIZE, 0, (off_t)bytes) != 0 && errno != EOPNOTSUPP &&
+                errno != ENOSYS)
+                code = errno;
+            close(fd);
+        }
+    }
+    MPI_Bcast(&code, 1, MPI_INT, 0, comm);
+    return code;
+}
+
 /* Temporary name next to the output, unique per run (rank 0's pid). */
 static void temp_name(const struct gcp_scene *sc, MPI_Comm comm, char *buf, size_t len)
 {
@@ -488,6 +532,24 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
         if (w.file >= 0) H5Fclose(w.file);
         if (me == 0) remove(tmp);
         return gcp_error_set(err, GCP_ERR_IO, "%s: cannot create '%s'", sc->output, tmp);
+    }
+    const int64_t need = size_bound(r, sc->total, comm);
+    const int nospace = reserve_space(tmp, need, comm);
+    if (nospace) {
+        H5Fclose(w.file);
+        if (me == 0) remove(tmp);
+        struct statvfs vfs;
+        char dir[1100];
+        snprintf(dir, sizeof dir, "%s", tmp);
+        char *slash = strrchr(dir, '/');
+        if (slash) slash[1] = '\0';
+        else strcpy(dir, ".");
+        const double avail = statvfs(dir, &vfs) == 0 ? (double)vfs.f_bavail * (double)vfs.f_frsize : -1.0;
+        return gcp_error_set(err, GCP_ERR_IO,
+                             "%s: the output needs up to %.3g MB, %s has %.3g MB free (%s): "
+                             "nothing written",
+                             sc->output, (double)need / 1e6, slash ? dir : ".", avail / 1e6,
+                             strerror(nospace));
     }
     w.dxpl = H5Pcreate(H5P_DATASET_XFER);
     H5Pset_dxpl_mpio(w.dxpl, H5FD_MPIO_COLLECTIVE);

@@ -152,4 +152,27 @@ rm big.h5
 RUN=big.run ckpt big.h5.ckpt.0 64 0 64
 "$GCPUSH" --quiet --restart big.h5 2> err.txt || die "restart of a 1 MB run file: $(cat err.txt)"
 same_text "restart"
+# 1. disk full at the final write (a 1 MiB tmpfs where root may mount one):
+# one message, exit 1, no temporary, other files kept, on 1 and 2 ranks
+mkdir full
+if mount -t tmpfs -o size=1m tmpfs full 2> /dev/null; then
+    trap 'umount "$TMP/full"; rm -rf "$TMP"' EXIT
+    sed 's|^file       = ck.h5|file       = full/ck.h5\ntrajectory = 3000 samples\ncheckpoint = 1 ms|' ck.run > full.run
+    for np in 1 2; do
+        echo "another run's checkpoint" > full/ck.h5.ckpt.7
+        timeout -s KILL 60 mpirun --oversubscribe --bind-to none -np $np "$GCPUSH" --quiet full.run > out.txt 2> err.txt
+        rc=$?
+        [ $rc = 1 ] || die "disk full on $np rank(s): exit status $rc, not 1: $(cat err.txt)"
+        [ "$(grep -c '^gcpush: full/ck.h5:' err.txt)" = 1 ] || die "disk full on $np rank(s): $(cat err.txt)"
+        grep -q "needs up to .* MB free" err.txt || die "disk full on $np rank(s): $(cat err.txt)"
+        ls full/ck.h5.tmp-* > /dev/null 2>&1 && die "disk full on $np rank(s): the temporary was left"
+        [ -f full/ck.h5 ] && die "disk full on $np rank(s): an output was left"
+        [ -f full/ck.h5.ckpt.7 ] || die "disk full on $np rank(s): a checkpoint was removed"
+        rm -f full/*
+    done
+    umount full
+    trap 'rm -rf "$TMP"' EXIT
+else
+    echo "skip: disk full (cannot mount a tmpfs here; needs root)"
+fi
 echo "ok test_faults"
