@@ -364,6 +364,7 @@ int main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     signal(SIGUSR1, on_signal);
 
+    gcp_output_progress(!quiet);
     struct gcp_results res;
     gcp_results_init(&res, sc->trajectory_samples, sc->pusher->kind == GCP_GUIDING_CENTRE);
     struct run_ctx ctx = {.sc = sc, .me = me, .quiet = quiet, .tty = isatty(2)};

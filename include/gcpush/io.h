@@ -61,6 +61,9 @@ void gcp_results_free(struct gcp_results *r);
 int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
                      struct gcp_error *err);
 
+/* Progress lines on stderr (rank 0) during writes longer than 5 s; on by
+ * default, 0 turns them off (--quiet). */
+void gcp_output_progress(int on);
 /* Checks early (collectively) that the output path can be created, so a
  * long run does not end in an unwritable directory.  0 or GCP_ERR_IO. */
 int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err);
