@@ -220,6 +220,58 @@ static void summary(const struct gcp_scene *sc, const struct gcp_results *r, MPI
     printf("output: %s\n", sc->output);
 }
 
+/* Peak bytes one of nranks ranks holds: its rows in arrays grown by
+ * doubling (up to twice the rows), plus the larger of the sort's copy of
+ * one column with its permutation and the parallel write's two copies of
+ * one column.  Events are not counted (a few per particle and orbit). */
+static double memory_per_rank(const struct gcp_scene *sc, int nranks)
+{
+    int64_t widest;
+    const int64_t row = gcp_results_row_bytes(sc->trajectory_samples,
+                                              sc->pusher->kind == GCP_GUIDING_CENTRE, &widest);
+    const int64_t chunks = gcp_scene_chunk_count(sc);
+    const double rows = (double)((chunks + nranks - 1) / nranks) * GCP_CHUNK;
+    double cap = 256;
+    while (cap < rows) cap *= 2;
+    const double sort = rows * (double)(widest + 8), write = 2.0 * (double)sc->total / nranks * (double)widest;
+    return cap * (double)row + (sort > write ? sort : write) + 64e6; /* + code, MPI, HDF5 */
+}
+
+/* MemAvailable of /proc/meminfo in bytes; 0 when unknown. */
+static double memory_available(void)
+{
+    FILE *fp = fopen("/proc/meminfo", "r");
+    if (!fp) return 0;
+    char line[256];
+    double kb = 0;
+    while (fgets(line, sizeof line, fp))
+        if (sscanf(line, "MemAvailable: %lf kB", &kb) == 1) break;
+    fclose(fp);
+    return kb * 1024.0;
+}
+
+/* Refuses, before anything runs, a run whose ranks on this node need more
+ * memory than the node has available: a run at the trajectory cap needed
+ * ~25 GB and failed only at its end.  All ranks agree. */
+static int memory_check(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err)
+{
+    int nranks, local;
+    MPI_Comm_size(comm, &nranks);
+    MPI_Comm node;
+    MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    MPI_Comm_size(node, &local);
+    MPI_Comm_free(&node);
+    const double need = memory_per_rank(sc, nranks), avail = memory_available();
+    int bad = avail > 0 && need * local > avail;
+    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+    if (!bad) return 0;
+    return gcp_error_set(err, GCP_ERR_VALUE,
+                         "%s: the run needs about %.3g GB per rank (%.3g GB for the %d rank(s) on "
+                         "this node), which has %.3g GB available: run fewer particles or "
+                         "trajectory samples ([output] trajectory), or on more ranks on more nodes",
+                         sc->path, need / 1e9, need * local / 1e9, local, avail / 1e9);
+}
+
 /* Loads the scene: from the run file, or on restart from the text saved in
  * the checkpoints.  All ranks agree on the outcome. */
 static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char ***files,
@@ -338,6 +390,10 @@ int main(int argc, char **argv)
                 printf("  [%s] %lld %s, %lld steps of %.6g s\n", sc->pops[k].name,
                        (long long)sc->pops[k].count, sc->pops[k].species.name,
                        (long long)sc->pops[k].nsteps, sc->pops[k].dt);
+            printf("  memory: about %.3g GB on 1 rank, %.3g GB per rank on 4, %.3g GB per rank on 16 "
+                   "(%.3g GB available here)\n",
+                   memory_per_rank(sc, 1) / 1e9, memory_per_rank(sc, 4) / 1e9,
+                   memory_per_rank(sc, 16) / 1e9, memory_available() / 1e9);
         }
         gcp_scene_free(sc);
         MPI_Finalize();
@@ -351,7 +407,7 @@ int main(int argc, char **argv)
         rc = gcp_error_set(&err, GCP_ERR_VALUE,
                            "%s: [output] file: '%s' exists: remove it or run with --force to "
                            "replace it", sc->path, sc->output);
-    if (rc || (rc = gcp_output_probe(sc, comm, &err))) {
+    if (rc || (rc = memory_check(sc, comm, &err)) || (rc = gcp_output_probe(sc, comm, &err))) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", err.msg);
         gcp_scene_free(sc);
         free_list(files, nfiles);

@@ -47,6 +47,9 @@ struct gcp_results {
 
 /* gc: rows of a guiding-centre pusher (the columns differ). */
 void gcp_results_init(struct gcp_results *r, int64_t samples, int gc);
+/* Bytes of one row of results with `samples` trajectory samples; *largest
+ * (when not NULL) gets the widest column's bytes per row. */
+int64_t gcp_results_row_bytes(int64_t samples, int gc, int64_t *largest);
 /* Makes room for `more` rows; returns 0 or GCP_ERR_NOMEM. */
 int gcp_results_reserve(struct gcp_results *r, int64_t more);
 /* Sorts rows by particle id (the writer needs them in file order). */

@@ -46,6 +46,22 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
     return n;
 }
 
+int64_t gcp_results_row_bytes(int64_t samples, int gc, int64_t *largest)
+{
+    struct gcp_results r;
+    gcp_results_init(&r, samples, gc);
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(&r, c);
+    int64_t sum = 0, big = 0;
+    for (size_t k = 0; k < nc; k++) {
+        const int64_t b = c[k].per_row * (int64_t)c[k].elem;
+        sum += b;
+        big = b > big ? b : big;
+    }
+    if (largest) *largest = big;
+    return sum;
+}
+
 void gcp_results_init(struct gcp_results *r, int64_t samples, int gc)
 {
     memset(r, 0, sizeof *r);

@@ -175,4 +175,14 @@ if mount -t tmpfs -o size=1m tmpfs full 2> /dev/null; then
 else
     echo "skip: disk full (cannot mount a tmpfs here; needs root)"
 fi
+# 6. memory: --check prints the estimate; a run needing more than the node
+# has (1e9 particles: ~220 GB) is refused before it starts, saying the way out
+sed 's/^count    = 128/count    = 1000000000/; s/^dt       = 0.05 gyro/dt       = 1 ns/' ck.run > huge.run
+"$GCPUSH" --check huge.run > out.txt 2> err.txt || die "--check of 1e9 particles: $(cat err.txt)"
+grep -q "memory: about [0-9.e+]* GB on 1 rank" out.txt || die "--check gives no memory estimate: $(cat out.txt)"
+timeout -s KILL 30 "$GCPUSH" --quiet huge.run > out.txt 2> err.txt
+rc=$?
+[ $rc = 2 ] || die "1e9 particles: exit status $rc, not 2: $(cat err.txt)"
+grep -q "needs about .* GB per rank.*more ranks" err.txt || die "1e9 particles: $(cat err.txt)"
+[ -f ck.h5 ] && die "1e9 particles: an output was written"
 echo "ok test_faults"
