@@ -221,8 +221,10 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
               gcp_results_reserve(&part, rows);
         for (size_t k = 0; k < nc && !bad; k++)
             bad = get(fp, *c[k].data, (size_t)rows * (size_t)c[k].per_row * c[k].elem);
-        left -= rows * row_bytes;
-        part.n = rows;
+        if (!bad) { /* rows is known to fit the file now */
+            left -= rows * row_bytes;
+            part.n = rows;
+        }
         part.rank_cpu = cpu;
         int64_t nev = -1;
         bad = bad || get(fp, &nev, sizeof nev) || nev < 0 ||

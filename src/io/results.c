@@ -132,7 +132,7 @@ int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)
     struct gcp_results_column cd[GCP_RESULTS_MAX_COLUMNS], cs[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(dst, cd);
     gcp_results_columns((struct gcp_results *)src, cs);
-    for (size_t k = 0; k < nc; k++) {
+    for (size_t k = 0; k < nc && src->n; k++) { /* no rows: the arrays may be NULL */
         const size_t row = (size_t)cd[k].per_row * cd[k].elem;
         memcpy((char *)*cd[k].data + (size_t)dst->n * row, *cs[k].data, (size_t)src->n * row);
     }
