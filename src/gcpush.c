@@ -10,6 +10,7 @@
  * failed (I/O), 2 bad usage or a bad run file, 3 interrupted (SIGINT,
  * SIGTERM or SIGUSR1: a checkpoint was written).  Messages come from rank 0 only, one
  * line each, naming file, line and key. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <limits.h>
 #include <signal.h>
 #include <stdio.h>
@@ -272,6 +273,19 @@ static int memory_check(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_er
                          sc->path, need / 1e9, need * local / 1e9, local, avail / 1e9);
 }
 
+/* Whether paths a and b name the same file, existing or not: their
+ * directories resolved (`--restart ./ck.h5` of a run that wrote ck.h5). */
+static int same_path(const char *a, const char *b)
+{
+    if (strcmp(a, b) == 0) return 1;
+    char ra[PATH_MAX], rb[PATH_MAX], da[PATH_MAX], db[PATH_MAX];
+    const char *sa = strrchr(a, '/'), *sb = strrchr(b, '/');
+    snprintf(da, sizeof da, "%.*s", sa ? (int)(sa - a) + 1 : 1, sa ? a : ".");
+    snprintf(db, sizeof db, "%.*s", sb ? (int)(sb - b) + 1 : 1, sb ? b : ".");
+    if (!realpath(da, ra) || !realpath(db, rb)) return 0;
+    return strcmp(ra, rb) == 0 && strcmp(sa ? sa + 1 : a, sb ? sb + 1 : b) == 0;
+}
+
 /* Loads the scene: from the run file, or on restart from the text saved in
  * the checkpoints.  All ranks agree on the outcome. */
 static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char ***files,
@@ -289,7 +303,7 @@ static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char 
         char *text, *path;
         if (!(rc = gcp_checkpoint_read_text((*files)[0], &text, &path, err))) {
             rc = gcp_scene_parse(path, text, sc, err);
-            if (!rc && strcmp((*sc)->output, arg) != 0)
+            if (!rc && !same_path((*sc)->output, arg))
                 rc = gcp_error_set(err, GCP_ERR_VALUE,
                                    "%s: the checkpoint's run file writes '%s', not '%s'",
                                    (*files)[0], (*sc)->output, arg);

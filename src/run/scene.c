@@ -492,6 +492,12 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp
             return gcp_section_error(is, "dt", err, GCP_ERR_VALUE,
                                      "[%s]: %.3g steps per particle: dt is far too small for "
                                      "the duration", p->name, steps);
+        /* a step longer than the run (dt = 1e308 s) silently became one
+         * step of the whole duration */
+        if (p->dt > sc->duration * (1.0 + 1e-12))
+            return gcp_section_error(is, "dt", err, GCP_ERR_VALUE,
+                                     "[%s]: a step of %.3g s is longer than the run (%.3g s)",
+                                     p->name, p->dt, sc->duration);
         p->nsteps = steps < 1 ? 1 : (int64_t)steps;
         p->dt = sc->duration / (double)p->nsteps;
         if (traj_every) p->trajectory_every = traj_every;

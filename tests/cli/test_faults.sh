@@ -129,7 +129,7 @@ sed "s/^seed     = 7$/seed     = 7${pad}# ${pad}/" ck.run > long.run
 tr '\n' '\r' < ck.run > cr.run
 "$GCPUSH" --check cr.run > out.txt 2> err.txt || die "CR-only line ends: $(cat err.txt)"
 grep -q "ok: 128 particles" out.txt || die "CR-only line ends: $(cat out.txt)"
-printf '[field]\nB1 = 2 T\n' >> ck.run.dup && cat ck.run ck.run.dup > dup.run
+printf '[field]\nr_max = 1 m\n' >> ck.run.dup && cat ck.run ck.run.dup > dup.run
 "$GCPUSH" --check dup.run > out.txt 2> err.txt && die "a second [field] section was merged"
 grep -q "dup.run:21: \[field\]: section given twice (first on line 6)" err.txt || die "duplicate section: $(cat err.txt)"
 # 3. a 1 MB run file (7000 comment lines): stored whole in the output
@@ -185,4 +185,13 @@ rc=$?
 [ $rc = 2 ] || die "1e9 particles: exit status $rc, not 2: $(cat err.txt)"
 grep -q "needs about .* GB per rank.*more ranks" err.txt || die "1e9 particles: $(cat err.txt)"
 [ -f ck.h5 ] && die "1e9 particles: an output was written"
+# 11. a step longer than the run is refused (it ran one step of the whole
+# duration); --restart ./ck.h5 finds the run that wrote ck.h5
+sed 's/^dt       = 0.05 gyro/dt       = 1e308 s/' ck.run > bigdt.run
+"$GCPUSH" --check bigdt.run > out.txt 2> err.txt && die "dt = 1e308 s accepted: $(cat out.txt)"
+grep -q "bigdt.run:18: \[integrator\] dt: .*longer than the run" err.txt || die "dt = 1e308 s: $(cat err.txt)"
+ckpt ck.h5.ckpt.0 64 0 64
+"$GCPUSH" --quiet --restart ./ck.h5 2> err.txt || die "--restart ./ck.h5: $(cat err.txt)"
+[ -f ck.h5 ] || die "--restart ./ck.h5 wrote no ck.h5"
+rm -f ck.h5
 echo "ok test_faults"
