@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
@@ -633,6 +634,16 @@ static int reserve_space(const char *tmp, int64_t bytes, MPI_Comm comm)
     return code;
 }
 
+/* Gives back what reserve_space held past the end of the file (HDF5 leaves
+ * the size alone, and compressed trajectories end far below the bound):
+ * a truncate to the same size frees blocks past it (ext4, tmpfs). */
+static void trim(const char *tmp)
+{
+    struct stat st;
+    if (stat(tmp, &st) != 0) return;
+    if (truncate(tmp, st.st_size) != 0) return; /* a failure costs only disk space */
+}
+
 /* Temporary name next to the output, unique per run (rank 0's pid). */
 static void temp_name(const struct gcp_scene *sc, MPI_Comm comm, char *buf, size_t len)
 {
@@ -751,7 +762,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     if (me == 0) {
         if (w.bad) {
             remove(tmp);
-        } else if (rename(tmp, sc->output) == 0) {
+        } else if (trim(tmp), rename(tmp, sc->output) == 0) {
             renamed = 1;
         } else {
             code = errno;

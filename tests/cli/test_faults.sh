@@ -152,6 +152,14 @@ rm big.h5
 RUN=big.run ckpt big.h5.ckpt.0 64 0 64
 "$GCPUSH" --quiet --restart big.h5 2> err.txt || die "restart of a 1 MB run file: $(cat err.txt)"
 same_text "restart"
+# the space reserved for the output is given back: its disk usage is its size
+sed 's|^file       = ck.h5|file       = du.h5\ntrajectory = 300 samples|' ck.run > du.run
+"$GCPUSH" --quiet du.run || die "du.run failed"
+used=$(du -k du.h5 | cut -f1)
+size=$(($(wc -c < du.h5) / 1024))
+[ "$used" -le $((size + size / 4 + 64)) ] || die "du.h5 takes $used KiB on disk for $size KiB"
+rm -f du.h5
+
 # 1. disk full at the final write (a 1 MiB tmpfs where root may mount one):
 # one message, exit 1, no temporary, other files kept, on 1 and 2 ranks
 mkdir full
