@@ -4,6 +4,7 @@
 # Each case: a clear message, a non-zero exit, nothing half-written.
 set -u
 . "$(dirname "$0")/lib.sh"
+here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$TMP"
 
 # 128 protons in the mirror (2 chunks of 64), no trajectory: rows of 160 bytes
@@ -202,4 +203,12 @@ ckpt ck.h5.ckpt.0 64 0 64
 "$GCPUSH" --quiet --restart ./ck.h5 2> err.txt || die "--restart ./ck.h5: $(cat err.txt)"
 [ -f ck.h5 ] || die "--restart ./ck.h5 wrote no ck.h5"
 rm -f ck.h5
+# 11. a G-EQDSK header asking for 99999^2 numbers in an 80 KB file: a message
+# saying so, not a bare "out of memory" after an 80 GB allocation
+mkdir -p fields/data
+g=$here/fields/data/diiid_184833.geqdsk
+{ head -1 "$g" | sed 's/  65  65$/ 99999 99999/'; tail -n +2 "$g"; } > fields/data/diiid_184833.geqdsk
+cp "$here/runs/tokamak-eqdsk.run" eq.run
+"$GCPUSH" --check eq.run > out.txt 2> err.txt && die "a 99999^2 EQDSK header was accepted"
+grep -q "geqdsk:1: nw x nh = 99999 x 99999 asks for .* but only .* bytes follow" err.txt || die "99999^2 EQDSK: $(cat err.txt)"
 echo "ok test_faults"
