@@ -58,6 +58,19 @@ $(FUZZER): $(FUZZ_SRC) $(wildcard include/gcpush/*.h src/*/*.h fields/*.h)
 	  -fno-sanitize-recover=all $(CPPFLAGS) $(shell pkg-config --cflags $(PKGS) 2>/dev/null) \
 	  -o $@ $(FUZZ_SRC) $(LDLIBS)
 
+# The restart path (checkpoint files as input) under the same sanitizers:
+# the run-file layers again (a checkpoint holds its run file) plus io/'s
+# checkpoint and result tables (no MPI or HDF5 call among them).
+FUZZER_CKPT := build-fuzz/fuzz_checkpoint
+FUZZ_CKPT_SRC := $(filter-out tests/fuzz/fuzz_runfile.c,$(FUZZ_SRC)) src/io/checkpoint.c \
+            src/io/results.c tests/fuzz/fuzz_checkpoint.c
+$(FUZZER_CKPT): $(FUZZ_CKPT_SRC) $(wildcard include/gcpush/*.h src/*/*.h fields/*.h)
+	@mkdir -p build-fuzz
+	@echo "  CLANG $@"
+	@clang $(CSTD) -Wall -Wextra -Werror -O1 -g -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=all $(CPPFLAGS) $(shell pkg-config --cflags $(PKGS) 2>/dev/null) \
+	  -o $@ $(FUZZ_CKPT_SRC) $(LDLIBS)
+
 LIBA     := $(BUILD)/libgcpush.a
 LIBSO    := $(BUILD)/libgcpush.so
 # The debug binary lives apart, so DEBUG=1 and normal builds never mix.
@@ -124,29 +137,34 @@ $(UNIT): $(TEST_OBJ) $(LIBA)
 # The README's commands: install, build, then the work.
 run: deps
 	@$(MAKE) --no-print-directory build
-	./$(BIN) runs/dipole.run
+	./$(BIN) --force runs/dipole.run
 	$(PY) analysis/plot_orbits.py dipole.h5 -o dipole.png --max 12
 	@echo "output: $$(pwd)/dipole.h5   plot: $$(pwd)/dipole.png"
 
 check: deps
 	@$(MAKE) --no-print-directory check-built
 
-check-built: build $(UNIT) $(FUZZER)
+check-built: build $(UNIT) $(FUZZER) $(FUZZER_CKPT)
 	LSAN_OPTIONS="suppressions=$(CURDIR)/tests/lsan.supp:print_suppressions=0" $(UNIT) --jobs=$(JOBS)
 	BUILD=$(BUILD) PY=$(PY) GCPUSH=$(CURDIR)/$(BIN) sh tests/cli/run_all.sh
 	@$(MAKE) --no-print-directory fuzz-run FUZZ_SECONDS=20
 
 fuzz: deps
-	@$(MAKE) --no-print-directory $(FUZZER)
+	@$(MAKE) --no-print-directory $(FUZZER) $(FUZZER_CKPT)
 	@$(MAKE) --no-print-directory fuzz-run
 
-fuzz-run: $(FUZZER)
-	@mkdir -p build-fuzz/corpus
+fuzz-run: $(FUZZER) $(FUZZER_CKPT)
+	@mkdir -p build-fuzz/corpus build-fuzz/corpus-ckpt
 	@echo "fuzzing the run-file reader for $(FUZZ_SECONDS) s"
 	@$(FUZZER) -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=4096 \
 	  -dict=tests/fuzz/runfile.dict -print_final_stats=0 build-fuzz/corpus tests/fuzz/corpus \
 	  > build-fuzz/last.log 2>&1 || { tail -40 build-fuzz/last.log; exit 1; }
 	@grep -E "^(Done|#[0-9]+ +DONE)" build-fuzz/last.log | tail -1
+	@echo "fuzzing the restart path (checkpoint files) for $(FUZZ_SECONDS) s"
+	@$(FUZZER_CKPT) -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=2048 \
+	  -malloc_limit_mb=256 -print_final_stats=0 build-fuzz/corpus-ckpt tests/fuzz/corpus-ckpt \
+	  > build-fuzz/last-ckpt.log 2>&1 || { tail -40 build-fuzz/last-ckpt.log; exit 1; }
+	@grep -E "^(Done|#[0-9]+ +DONE)" build-fuzz/last-ckpt.log | tail -1
 
 bench: deps
 	@$(MAKE) --no-print-directory build

@@ -208,6 +208,18 @@ int gcp_field_eqdsk_load(const char *path, int cocos, struct gcp_field **out,
     double h[20];
     if ((rc = read_reals(&r, 20, h, "header (rdim zdim rcentr rleft zmid ...)", err))) goto fail;
     const size_t NW = (size_t)nw, NH = (size_t)nh;
+    /* the sizes from the header must fit the file before they are
+     * allocated: a 99999^2 header in an 80 KB file asked for 80 GB and
+     * ended in a bare "out of memory"; a number takes 2 characters at least */
+    const double values = 5.0 * (double)NW + (double)NW * (double)NH;
+    const size_t left = strlen(r.pos);
+    if (2.0 * values > (double)left) {
+        rc = gcp_error_set(err, GCP_ERR_VALUE,
+                           "%s:1: nw x nh = %d x %d asks for %.0f numbers, but only %zu bytes "
+                           "follow (truncated, or not a G-EQDSK file?)",
+                           path, nw, nh, values, left);
+        goto fail;
+    }
     buf = malloc((5 * NW) * sizeof *buf);
     psirz = malloc(NW * NH * sizeof *psirz);
     e = calloc(1, sizeof *e);

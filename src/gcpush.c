@@ -1,6 +1,7 @@
 /* gcpush -- command line.
  *
- *   gcpush [--quiet] FILE.run     run the scene, write its HDF5 output
+ *   gcpush [--quiet] [--force] FILE.run  run the scene, write its HDF5 output
+ *                                 (--force: replace an existing output)
  *   gcpush --check FILE.run       validate the run file, run nothing
  *   gcpush --restart OUT.h5       continue a killed or interrupted run from its checkpoints
  *   gcpush --help | --version
@@ -9,6 +10,8 @@
  * failed (I/O), 2 bad usage or a bad run file, 3 interrupted (SIGINT,
  * SIGTERM or SIGUSR1: a checkpoint was written).  Messages come from rank 0 only, one
  * line each, naming file, line and key. */
+#define _XOPEN_SOURCE 700 /* realpath */
+#include <limits.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,9 +47,10 @@ static void on_signal(int sig)
 static void usage(FILE *to)
 {
     fprintf(to,
-            "usage: gcpush [--quiet] FILE.run     run a scene, write its HDF5 output\n"
+            "usage: gcpush [--quiet] [--force] FILE.run  run a scene, write its HDF5 output\n"
+            "                                     (--force: replace an existing output file)\n"
             "       gcpush --check FILE.run       validate a run file without running it\n"
-            "       gcpush --restart OUT.h5       continue an interrupted run from its checkpoints\n"
+            "       gcpush [--force] --restart OUT.h5  continue an interrupted run from its checkpoints\n"
             "       gcpush grid FILE.run          sample a field onto a grid file (fields/README.md)\n"
             "       gcpush --help | --version\n"
             "under MPI: mpirun -np N gcpush FILE.run (one output file, same result for any N)\n\n");
@@ -118,6 +122,42 @@ static void chunk_done(void *vctx, struct gcp_results *res, int64_t particles, i
     }
 }
 
+/* The first error of the lowest failing rank, on every rank (so rank 0,
+ * which prints, says what went wrong where).  Returns whether any failed. */
+static int agree_error(int failed, struct gcp_error *err, MPI_Comm comm)
+{
+    int me, who;
+    MPI_Comm_rank(comm, &me);
+    int mine = failed ? me : INT_MAX;
+    MPI_Allreduce(&mine, &who, 1, MPI_INT, MPI_MIN, comm);
+    if (who == INT_MAX) return 0;
+    MPI_Bcast(err, (int)sizeof *err, MPI_BYTE, who, comm);
+    if (!err->code) err->code = GCP_ERR_IO;
+    return 1;
+}
+
+/* After restart_load's dedup (rows sorted by id, each once, each chunk on one
+ * rank): every chunk held must be whole, since gcpush checkpoints only whole
+ * chunks; a chunk with holes would come out as rows of id 0, t 0, ALIVE. */
+static int chunks_whole(const struct gcp_scene *sc, const struct gcp_results *res,
+                        struct gcp_error *err)
+{
+    for (int64_t i = 0; i < res->n;) {
+        const int64_t c = gcp_scene_chunk_of(sc, res->id[i]);
+        int64_t j = i + 1, first, count;
+        while (j < res->n && gcp_scene_chunk_of(sc, res->id[j]) == c) j++;
+        gcp_scene_chunk(sc, c, &first, &count);
+        if (j - i != count)
+            return gcp_error_set(err, GCP_ERR_IO,
+                                 "%s.ckpt.*: particles %lld .. %lld (one chunk): %lld of %lld in "
+                                 "the checkpoints; they are corrupt (remove them to start over)",
+                                 sc->output, (long long)first, (long long)(first + count - 1),
+                                 (long long)(j - i), (long long)count);
+        i = j;
+    }
+    return 0;
+}
+
 /* On restart: load the checkpoints (file i on rank i % nranks), keep one copy
  * of each chunk (the lowest rank holding it), and list the chunks left. */
 static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, char **files,
@@ -127,9 +167,7 @@ static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, cha
     int rc = 0;
     for (size_t i = (size_t)me; i < nfiles && !rc; i += (size_t)nranks)
         rc = gcp_checkpoint_load(files[i], sc, res, err);
-    int bad = rc != 0;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (bad) return rc ? rc : GCP_ERR_IO;
+    if (agree_error(rc != 0, err, comm)) return err->code;
     const int64_t nchunks = gcp_scene_chunk_count(sc);
     /* owner[c] = lowest rank holding chunk c, or nranks when nobody does */
     int *owner = malloc((size_t)nchunks * sizeof *owner);
@@ -150,6 +188,10 @@ static int restart_load(const struct gcp_scene *sc, struct gcp_results *res, cha
     for (int64_t i = 0; i < res->n; i++) keep[i] = i == 0 || res->id[i] != res->id[i - 1];
     gcp_results_drop(res, keep);
     free(keep);
+    if (agree_error(chunks_whole(sc, res, err) != 0, err, comm)) {
+        free(owner);
+        return err->code;
+    }
     *ntodo = 0;
     *todo = malloc((size_t)(nchunks ? nchunks : 1) * sizeof **todo);
     if (!*todo) {
@@ -179,6 +221,71 @@ static void summary(const struct gcp_scene *sc, const struct gcp_results *r, MPI
     printf("output: %s\n", sc->output);
 }
 
+/* Peak bytes one of nranks ranks holds: its rows in arrays grown by
+ * doubling (up to twice the rows), plus the larger of the sort's copy of
+ * one column with its permutation and the parallel write's two copies of
+ * one column.  Events are not counted (a few per particle and orbit). */
+static double memory_per_rank(const struct gcp_scene *sc, int nranks)
+{
+    int64_t widest;
+    const int64_t row = gcp_results_row_bytes(sc->trajectory_samples,
+                                              sc->pusher->kind == GCP_GUIDING_CENTRE, &widest);
+    const int64_t chunks = gcp_scene_chunk_count(sc);
+    const double rows = (double)((chunks + nranks - 1) / nranks) * GCP_CHUNK;
+    double cap = 256;
+    while (cap < rows) cap *= 2;
+    const double sort = rows * (double)(widest + 8), write = 2.0 * (double)sc->total / nranks * (double)widest;
+    return cap * (double)row + (sort > write ? sort : write) + 64e6; /* + code, MPI, HDF5 */
+}
+
+/* MemAvailable of /proc/meminfo in bytes; 0 when unknown. */
+static double memory_available(void)
+{
+    FILE *fp = fopen("/proc/meminfo", "r");
+    if (!fp) return 0;
+    char line[256];
+    double kb = 0;
+    while (fgets(line, sizeof line, fp))
+        if (sscanf(line, "MemAvailable: %lf kB", &kb) == 1) break;
+    fclose(fp);
+    return kb * 1024.0;
+}
+
+/* Refuses, before anything runs, a run whose ranks on this node need more
+ * memory than the node has available: a run at the trajectory cap needed
+ * ~25 GB and failed only at its end.  All ranks agree. */
+static int memory_check(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err)
+{
+    int nranks, local;
+    MPI_Comm_size(comm, &nranks);
+    MPI_Comm node;
+    MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    MPI_Comm_size(node, &local);
+    MPI_Comm_free(&node);
+    const double need = memory_per_rank(sc, nranks), avail = memory_available();
+    int bad = avail > 0 && need * local > avail;
+    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+    if (!bad) return 0;
+    return gcp_error_set(err, GCP_ERR_VALUE,
+                         "%s: the run needs about %.3g GB per rank (%.3g GB for the %d rank(s) on "
+                         "this node), which has %.3g GB available: run fewer particles or "
+                         "trajectory samples ([output] trajectory), or on more ranks on more nodes",
+                         sc->path, need / 1e9, need * local / 1e9, local, avail / 1e9);
+}
+
+/* Whether paths a and b name the same file, existing or not: their
+ * directories resolved (`--restart ./ck.h5` of a run that wrote ck.h5). */
+static int same_path(const char *a, const char *b)
+{
+    if (strcmp(a, b) == 0) return 1;
+    char ra[PATH_MAX], rb[PATH_MAX], da[PATH_MAX], db[PATH_MAX];
+    const char *sa = strrchr(a, '/'), *sb = strrchr(b, '/');
+    snprintf(da, sizeof da, "%.*s", sa ? (int)(sa - a) + 1 : 1, sa ? a : ".");
+    snprintf(db, sizeof db, "%.*s", sb ? (int)(sb - b) + 1 : 1, sb ? b : ".");
+    if (!realpath(da, ra) || !realpath(db, rb)) return 0;
+    return strcmp(ra, rb) == 0 && strcmp(sa ? sa + 1 : a, sb ? sb + 1 : b) == 0;
+}
+
 /* Loads the scene: from the run file, or on restart from the text saved in
  * the checkpoints.  All ranks agree on the outcome. */
 static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char ***files,
@@ -196,7 +303,7 @@ static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char 
         char *text, *path;
         if (!(rc = gcp_checkpoint_read_text((*files)[0], &text, &path, err))) {
             rc = gcp_scene_parse_with(path, text, gcp_initfile_read, sc, err);
-            if (!rc && strcmp((*sc)->output, arg) != 0)
+            if (!rc && !same_path((*sc)->output, arg))
                 rc = gcp_error_set(err, GCP_ERR_VALUE,
                                    "%s: the checkpoint's run file writes '%s', not '%s'",
                                    (*files)[0], (*sc)->output, arg);
@@ -223,7 +330,7 @@ int main(int argc, char **argv)
     MPI_Comm_rank(comm, &me);
     MPI_Comm_size(comm, &nranks);
 
-    int check = 0, quiet = 0, restart = 0;
+    int check = 0, quiet = 0, restart = 0, force = 0;
     const char *arg = NULL;
     if (argc == 3 && strcmp(argv[1], "grid") == 0) {
         struct gcp_error gerr = {0};
@@ -252,6 +359,8 @@ int main(int argc, char **argv)
             quiet = 1;
         } else if (strcmp(argv[i], "--restart") == 0) {
             restart = 1;
+        } else if (strcmp(argv[i], "--force") == 0) {
+            force = 1;
         } else if (argv[i][0] == '-' || arg) {
             if (me == 0) {
                 fprintf(stderr, "gcpush: unexpected argument '%s'\n", argv[i]);
@@ -302,12 +411,24 @@ int main(int argc, char **argv)
                        (long long)sc->pops[k].count, sc->pops[k].species.name,
                        sc->pops[k].file[0] ? " from " : "", sc->pops[k].file,
                        (long long)sc->pops[k].nsteps, sc->pops[k].dt);
+            printf("  memory: about %.3g GB on 1 rank, %.3g GB per rank on 4, %.3g GB per rank on 16 "
+                   "(%.3g GB available here)\n",
+                   memory_per_rank(sc, 1) / 1e9, memory_per_rank(sc, 4) / 1e9,
+                   memory_per_rank(sc, 16) / 1e9, memory_available() / 1e9);
         }
         gcp_scene_free(sc);
         MPI_Finalize();
         return 0;
     }
-    if ((rc = gcp_output_probe(sc, comm, &err))) {
+    /* an existing output is replaced only when asked: found at the end of
+     * a long run, a finished result was overwritten without a word */
+    int exists = me == 0 && !force && access(sc->output, F_OK) == 0;
+    MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
+    if (exists)
+        rc = gcp_error_set(&err, GCP_ERR_VALUE,
+                           "%s: [output] file: '%s' exists: remove it or run with --force to "
+                           "replace it", sc->path, sc->output);
+    if (rc || (rc = memory_check(sc, comm, &err)) || (rc = gcp_output_probe(sc, comm, &err))) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", err.msg);
         gcp_scene_free(sc);
         free_list(files, nfiles);
@@ -320,6 +441,7 @@ int main(int argc, char **argv)
     signal(SIGTERM, on_signal);
     signal(SIGUSR1, on_signal);
 
+    gcp_output_progress(!quiet);
     struct gcp_results res;
     gcp_results_init(&res, sc->trajectory_samples, sc->pusher->kind == GCP_GUIDING_CENTRE);
     res.hybrid = sc->hybrid;
@@ -344,6 +466,16 @@ int main(int argc, char **argv)
             free_list(files, nfiles);
             MPI_Finalize();
             return EXIT_RUN_FAILED;
+        }
+        /* what a run killed while writing left behind (a 1.8 GB output
+         * temporary once): this restart writes its own, so remove them */
+        char **stale;
+        size_t nstale;
+        if (me == 0 && gcp_output_stale_list(sc->output, &stale, &nstale) == 0) {
+            for (size_t i = 0; i < nstale; i++)
+                if (remove(stale[i]) == 0 && !quiet)
+                    printf("restart: removed %s, left by the interrupted run\n", stale[i]);
+            free_list(stale, nstale);
         }
         int64_t have = res.n;
         MPI_Allreduce(MPI_IN_PLACE, &have, 1, MPI_INT64_T, MPI_SUM, comm);

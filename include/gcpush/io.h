@@ -54,6 +54,9 @@ struct gcp_results {
 /* gc: rows of a guiding-centre pusher (the columns differ).  Set r->hybrid
  * before the first reserve for hybrid rows. */
 void gcp_results_init(struct gcp_results *r, int64_t samples, int gc);
+/* Bytes of one row of results with `samples` trajectory samples; *largest
+ * (when not NULL) gets the widest column's bytes per row. */
+int64_t gcp_results_row_bytes(int64_t samples, int gc, int64_t *largest);
 /* Makes room for `more` rows; returns 0 or GCP_ERR_NOMEM. */
 int gcp_results_reserve(struct gcp_results *r, int64_t more);
 /* Sorts rows by particle id (the writer needs them in file order). */
@@ -68,6 +71,9 @@ void gcp_results_free(struct gcp_results *r);
 int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MPI_Comm comm,
                      struct gcp_error *err);
 
+/* Progress lines on stderr (rank 0) during writes longer than 5 s; on by
+ * default, 0 turns them off (--quiet). */
+void gcp_output_progress(int on);
 /* Checks early (collectively) that the output path can be created, so a
  * long run does not end in an unwritable directory.  0 or GCP_ERR_IO. */
 int gcp_output_probe(const struct gcp_scene *sc, MPI_Comm comm, struct gcp_error *err);
@@ -77,6 +83,9 @@ int gcp_checkpoint_write(const struct gcp_scene *sc, struct gcp_results *r, int 
                          struct gcp_error *err);
 /* The checkpoint files of output path `output` (malloc'ed array of strdup'ed names). */
 int gcp_checkpoint_list(const char *output, char ***files, size_t *n);
+/* The temporaries an interrupted run of `output` left: OUT.tmp-PID (the
+ * output write) and OUT.ckpt.N.tmp (a checkpoint write); same conventions. */
+int gcp_output_stale_list(const char *output, char ***files, size_t *n);
 /* The run file text and path a checkpoint was made from (malloc'ed). */
 int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct gcp_error *err);
 /* Appends a checkpoint's rows to r (after checking it belongs to sc). */

@@ -12,7 +12,7 @@
  *   double rank_cpu, then each column of struct gcp_results in table order,
  *   then int64 events and the events (struct gcp_event, invariants.h). */
 #include <errno.h>
-#include <glob.h>
+#include <dirent.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -72,32 +72,102 @@ static int read_header(FILE *fp, char **text, char **path, int64_t *S, int64_t *
     return 0;
 }
 
-int gcp_checkpoint_list(const char *output, char ***files, size_t *n)
+/* Whether s is one or more decimal digits and nothing else. */
+static int all_digits(const char *s)
 {
-    char pattern[1200];
-    snprintf(pattern, sizeof pattern, "%s.ckpt.[0-9]*", output);
-    glob_t g;
+    if (!*s) return 0;
+    for (; *s; s++)
+        if (*s < '0' || *s > '9') return 0;
+    return 1;
+}
+
+/* Whether directory entry `name` is, for output base name `base`, a
+ * checkpoint (OUT.ckpt.N) or, with stale set, a temporary an interrupted
+ * run left (OUT.tmp-PID of the output write, OUT.ckpt.N.tmp of a checkpoint
+ * write).  Exact names, no glob: the output name may hold '*' or '[', and
+ * OUT.ckpt.0.bak is somebody else's file. */
+static int ours(const char *name, const char *base, int stale)
+{
+    const size_t bl = strlen(base);
+    if (strncmp(name, base, bl) != 0) return 0;
+    const char *rest = name + bl;
+    if (!stale) return strncmp(rest, ".ckpt.", 6) == 0 && all_digits(rest + 6);
+    if (strncmp(rest, ".tmp-", 5) == 0) return all_digits(rest + 5);
+    if (strncmp(rest, ".ckpt.", 6) != 0) return 0;
+    const size_t rl = strlen(rest + 6);
+    char digits[64];
+    if (rl <= 4 || rl - 4 >= sizeof digits || strcmp(rest + 6 + rl - 4, ".tmp") != 0) return 0;
+    memcpy(digits, rest + 6, rl - 4);
+    digits[rl - 4] = '\0';
+    return all_digits(digits);
+}
+
+static int cmp_str(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* The files next to `output` that ours() accepts, sorted by name. */
+static int list_ours(const char *output, int stale, char ***files, size_t *n)
+{
     *files = NULL;
     *n = 0;
-    int rc = glob(pattern, 0, NULL, &g);
-    if (rc == GLOB_NOMATCH) return 0;
-    if (rc) return GCP_ERR_IO;
-    size_t k = 0;
-    char **out = calloc(g.gl_pathc + 1, sizeof *out);
-    if (!out) {
-        globfree(&g);
-        return GCP_ERR_NOMEM;
+    const char *slash = strrchr(output, '/');
+    const char *base = slash ? slash + 1 : output;
+    const size_t dl = slash ? (size_t)(slash - output) + 1 : 0; /* "dir/" kept as given */
+    char dir[1100];
+    if (dl + 2 > sizeof dir) return GCP_ERR_IO;
+    if (dl) {
+        memcpy(dir, output, dl);
+        dir[dl] = '\0';
+    } else {
+        strcpy(dir, ".");
     }
-    for (size_t i = 0; i < g.gl_pathc; i++) {
-        const char *p = g.gl_pathv[i];
-        const size_t len = strlen(p);
-        if (len > 4 && strcmp(p + len - 4, ".tmp") == 0) continue; /* an interrupted write */
-        out[k++] = strdup(p);
+    DIR *d = opendir(dir);
+    if (!d) return errno == ENOENT ? 0 : GCP_ERR_IO;
+    size_t cap = 8, k = 0;
+    char **out = malloc(cap * sizeof *out);
+    int rc = out ? 0 : GCP_ERR_NOMEM;
+    for (struct dirent *e; !rc && (e = readdir(d));) {
+        if (!ours(e->d_name, base, stale)) continue;
+        if (k + 1 == cap) {
+            char **more = realloc(out, (cap *= 2) * sizeof *out);
+            if (!more) {
+                rc = GCP_ERR_NOMEM;
+                break;
+            }
+            out = more;
+        }
+        const size_t len = dl + strlen(e->d_name) + 1;
+        if (!(out[k] = malloc(len))) {
+            rc = GCP_ERR_NOMEM;
+            break;
+        }
+        memcpy(out[k], output, dl);
+        strcpy(out[k] + dl, e->d_name);
+        k++;
     }
-    globfree(&g);
+    closedir(d);
+    if (rc) {
+        for (size_t i = 0; i < k; i++) free(out[i]);
+        free(out);
+        return rc;
+    }
+    qsort(out, k, sizeof *out, cmp_str);
+    out[k] = NULL;
     *files = out;
     *n = k;
     return 0;
+}
+
+int gcp_checkpoint_list(const char *output, char ***files, size_t *n)
+{
+    return list_ours(output, 0, files, n);
+}
+
+int gcp_output_stale_list(const char *output, char ***files, size_t *n)
+{
+    return list_ours(output, 1, files, n);
 }
 
 int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct gcp_error *err)
@@ -117,6 +187,16 @@ int gcp_checkpoint_read_text(const char *file, char **text, char **path, struct 
     return 0;
 }
 
+/* Bytes from the current position to the end of the file; -1 on error. */
+static int64_t bytes_left(FILE *fp)
+{
+    const long here = ftell(fp);
+    if (here < 0 || fseek(fp, 0, SEEK_END) != 0) return -1;
+    const long end = ftell(fp);
+    if (end < 0 || fseek(fp, here, SEEK_SET) != 0) return -1;
+    return (int64_t)end - (int64_t)here;
+}
+
 int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp_results *r,
                         struct gcp_error *err)
 {
@@ -129,16 +209,27 @@ int gcp_checkpoint_load(const char *file, const struct gcp_scene *sc, struct gcp
     gcp_results_init(&part, r->S, r->gc);
     part.hybrid = r->hybrid;
     int bad = read_header(fp, &text, &path, &S, &rows, &cpu);
-    bad = bad || strcmp(text, sc->text) != 0 || S != r->S || gcp_results_reserve(&part, rows);
+    bad = bad || strcmp(text, sc->text) != 0 || S != r->S;
+    /* every size read from the file is checked against what the file holds
+     * and what the run has, before anything is allocated for it */
+    int64_t left = bad ? 0 : bytes_left(fp);
     if (!bad) {
         struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
         const size_t nc = gcp_results_columns(&part, c);
+        int64_t row_bytes = 0;
+        for (size_t k = 0; k < nc; k++) row_bytes += c[k].per_row * (int64_t)c[k].elem;
+        bad = rows > sc->total || left < 0 || rows > left / row_bytes ||
+              gcp_results_reserve(&part, rows);
         for (size_t k = 0; k < nc && !bad; k++)
             bad = get(fp, *c[k].data, (size_t)rows * (size_t)c[k].per_row * c[k].elem);
-        part.n = rows;
+        if (!bad) { /* rows is known to fit the file now */
+            left -= rows * row_bytes;
+            part.n = rows;
+        }
         part.rank_cpu = cpu;
         int64_t nev = -1;
-        bad = bad || get(fp, &nev, sizeof nev) || nev < 0 || nev > ((int64_t)1 << 40);
+        bad = bad || get(fp, &nev, sizeof nev) || nev < 0 ||
+              nev > (left - (int64_t)sizeof nev) / (int64_t)sizeof(struct gcp_event);
         for (int64_t k = 0; k < nev && !bad; k++) {
             struct gcp_event e;
             bad = get(fp, &e, sizeof e) || gcp_events_push(&part.ev, &e);

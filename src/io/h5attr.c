@@ -39,6 +39,17 @@ void gcp_h5_attr_num(int *bad, int64_t loc, const char *name, int64_t type, cons
     H5Sclose(sp);
 }
 
+void gcp_h5_plists(const struct gcp_scene *sc, int64_t fcpl, int64_t fapl)
+{
+    /* An attribute in the object header holds 64 KiB at most: a longer run
+     * file failed the write after the whole run.  Dense attribute storage
+     * (HDF5 1.8 file format) lifts that limit; smaller run files keep the
+     * default layout. */
+    if (strlen(sc->text) + strlen(sc->path) < 32768) return;
+    H5Pset_attr_phase_change((hid_t)fcpl, 0, 0);
+    H5Pset_libver_bounds((hid_t)fapl, H5F_LIBVER_V18, H5F_LIBVER_V18);
+}
+
 void gcp_h5_root_attrs(int *bad, int64_t file, const struct gcp_scene *sc, int nranks)
 {
     gcp_h5_attr_str(bad, file, "gcpush_version", GCP_VERSION);

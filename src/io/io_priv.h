@@ -24,6 +24,9 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c);
  * sets *bad. */
 void gcp_h5_attr_str(int *bad, int64_t loc, const char *name, const char *value);
 void gcp_h5_attr_num(int *bad, int64_t loc, const char *name, int64_t type, const void *v);
+/* File creation and access properties (hid_t) for sc's output: dense
+ * attribute storage when the run file text is too long for a compact one. */
+void gcp_h5_plists(const struct gcp_scene *sc, int64_t fcpl, int64_t fapl);
 /* The root attributes of every gcpush output file (DESIGN.md, HDF5 output). */
 void gcp_h5_root_attrs(int *bad, int64_t file, const struct gcp_scene *sc, int nranks);
 

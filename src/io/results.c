@@ -1,6 +1,7 @@
 /* Per-rank result rows: grown by chunk, sorted by id before writing,
  * saved to and loaded from checkpoints.  Every operation walks one table of
  * columns, so a new column is one line. */
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -52,6 +53,22 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
     return n;
 }
 
+int64_t gcp_results_row_bytes(int64_t samples, int gc, int64_t *largest)
+{
+    struct gcp_results r;
+    gcp_results_init(&r, samples, gc);
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(&r, c);
+    int64_t sum = 0, big = 0;
+    for (size_t k = 0; k < nc; k++) {
+        const int64_t b = c[k].per_row * (int64_t)c[k].elem;
+        sum += b;
+        big = b > big ? b : big;
+    }
+    if (largest) *largest = big;
+    return sum;
+}
+
 void gcp_results_init(struct gcp_results *r, int64_t samples, int gc)
 {
     memset(r, 0, sizeof *r);
@@ -61,11 +78,16 @@ void gcp_results_init(struct gcp_results *r, int64_t samples, int gc)
 
 int gcp_results_reserve(struct gcp_results *r, int64_t more)
 {
+    /* `more` may come from a file (a checkpoint): no doubling or byte count
+     * may overflow, whatever its value */
+    if (more < 0 || more > INT64_MAX / 4 - r->n) return GCP_ERR_NOMEM;
     if (r->n + more <= r->cap) return 0;
     int64_t cap = r->cap ? r->cap : 256;
     while (cap < r->n + more) cap *= 2;
     struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(r, c);
+    for (size_t k = 0; k < nc; k++)
+        if ((uint64_t)cap > SIZE_MAX / ((size_t)c[k].per_row * c[k].elem)) return GCP_ERR_NOMEM;
     for (size_t k = 0; k < nc; k++) {
         void *p = realloc(*c[k].data, (size_t)cap * (size_t)c[k].per_row * c[k].elem);
         if (!p) return GCP_ERR_NOMEM;
@@ -117,7 +139,7 @@ int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)
     struct gcp_results_column cd[GCP_RESULTS_MAX_COLUMNS], cs[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(dst, cd);
     gcp_results_columns((struct gcp_results *)src, cs);
-    for (size_t k = 0; k < nc; k++) {
+    for (size_t k = 0; k < nc && src->n; k++) { /* no rows: the arrays may be NULL */
         const size_t row = (size_t)cd[k].per_row * cd[k].elem;
         memcpy((char *)*cd[k].data + (size_t)dst->n * row, *cs[k].data, (size_t)src->n * row);
     }

@@ -67,7 +67,11 @@ int gcp_sweep_write(const struct gcp_scene *sc, const struct gcp_sweep_table *t,
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
     char tmp[1100];
     snprintf(tmp, sizeof tmp, "%s.tmp-%ld", sc->output, (long)getpid());
-    hid_t f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    hid_t fcpl = H5Pcreate(H5P_FILE_CREATE), fapl = H5Pcreate(H5P_FILE_ACCESS);
+    gcp_h5_plists(sc, fcpl, fapl);
+    hid_t f = H5Fcreate(tmp, H5F_ACC_TRUNC, fcpl, fapl);
+    H5Pclose(fcpl);
+    H5Pclose(fapl);
     if (f < 0) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot create '%s'", sc->output, tmp);
     int bad = 0;
     gcp_h5_root_attrs(&bad, f, sc, 1);

@@ -24,28 +24,75 @@
 struct reader {
     const char *p;  /* next character of the text */
     int line;       /* lines handed to libinih so far */
+    int too_long;   /* line number of a line longer than libinih's buffer, 0: none */
 };
-
-static char *read_line(char *str, int num, void *stream)
-{
-    struct reader *r = stream;
-    if (!*r->p) return NULL;
-    int k = 0;
-    while (*r->p && *r->p != '\n' && k < num - 1) str[k++] = *r->p++;
-    while (*r->p && *r->p != '\n') r->p++; /* an over-long line is cut, then rejected */
-    if (*r->p == '\n') r->p++;
-    str[k] = '\0';
-    char *hash = strchr(str, '#');
-    if (hash) *hash = '\0';
-    r->line++;
-    return str;
-}
 
 struct parse_state {
     struct reader rd;
     struct gcp_run_file *rf;
     struct gcp_error *err;
+    struct header { char *name; int line; } *hdr; /* section headers seen */
+    size_t nhdr;
 };
+
+/* A second [name] header: merged, its keys looked like one section's while
+ * the reader meant two (or one was pasted twice with different values). */
+static int header_seen(struct parse_state *ps, const char *section)
+{
+    const int line = ps->rd.line;
+    for (size_t i = 0; i < ps->nhdr; i++)
+        if (strcmp(ps->hdr[i].name, section) == 0)
+            return gcp_error_set(ps->err, GCP_ERR_SYNTAX,
+                                 "%s:%d: [%s]: section given twice (first on line %d)",
+                                 ps->rf->path, line, section, ps->hdr[i].line);
+    struct header *h = realloc(ps->hdr, (ps->nhdr + 1) * sizeof *h);
+    if (!h) return gcp_error_set(ps->err, GCP_ERR_NOMEM, "out of memory");
+    ps->hdr = h;
+    if (!(h[ps->nhdr].name = strdup(section)))
+        return gcp_error_set(ps->err, GCP_ERR_NOMEM, "out of memory");
+    h[ps->nhdr++].line = line;
+    return 0;
+}
+
+/* Hands libinih one line without its '#' comment.  A line whose text
+ * before the comment does not fit libinih's buffer (199 characters) ends
+ * the parse, so gcp_run_file_parse rejects it: cut, `seed = 7<spaces>99`
+ * gave seed 7.  Line ends: "\n", "\r\n", and a lone "\r" (old Mac files
+ * read as a single line otherwise). */
+static char *read_line(char *str, int num, void *stream)
+{
+    struct reader *r = stream; /* the first member of struct parse_state */
+    if (!*r->p) return NULL;
+    int k = 0, comment = 0;
+    for (; *r->p && *r->p != '\n' && *r->p != '\r'; r->p++) {
+        if (*r->p == '#') comment = 1;
+        if (comment) continue;
+        if (k == num - 1) {
+            if (*r->p == ' ' || *r->p == '\t') continue; /* blanks before a comment */
+            r->too_long = r->line + 1;
+            return NULL;
+        }
+        str[k++] = *r->p;
+    }
+    if (*r->p == '\r') {
+        r->p++;
+        if (*r->p == '\n') r->p++; /* "\r\n": one line end */
+    } else if (*r->p == '\n') {
+        r->p++;
+    }
+    str[k] = '\0';
+    r->line++;
+    /* libinih (Debian's) does not report headers: a header is a line
+     * starting, blanks aside, with '[' (libinih's own rule) */
+    const char *h = str + strspn(str, " \t");
+    const char *close = strchr(h, ']');
+    if (*h == '[' && close) {
+        char name[256];
+        snprintf(name, sizeof name, "%.*s", (int)(close - h - 1), h + 1);
+        if (header_seen((struct parse_state *)stream, name)) return NULL;
+    }
+    return str;
+}
 
 static struct gcp_section *section_named(struct gcp_run_file *rf, const char *name)
 {
@@ -125,7 +172,13 @@ int gcp_run_file_parse(const char *path, const char *text, struct gcp_run_file *
     rf->path = path;
     struct parse_state ps = {.rd = {.p = text, .line = 0}, .rf = rf, .err = err};
     int rc = ini_parse_stream(read_line, &ps.rd, on_key, &ps);
+    for (size_t i = 0; i < ps.nhdr; i++) free(ps.hdr[i].name);
+    free(ps.hdr);
     if (err && err->code) return err->code;
+    if (ps.rd.too_long)
+        return gcp_error_set(err, GCP_ERR_SYNTAX,
+                             "%s:%d: line longer than 199 characters (comments aside)", path,
+                             ps.rd.too_long);
     if (rc > 0)
         return gcp_error_set(err, GCP_ERR_SYNTAX,
                              "%s:%d: syntax error: expected [section], key = value, or a comment",

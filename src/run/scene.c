@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "gcpush/kernels.h"
 #include "gcpush/run.h"
@@ -377,6 +378,28 @@ static int resolve_duration(struct gcp_scene *sc, struct gcp_section *s, struct 
  * population (every particle then has at least that resolution): gyro
  * periods over all its particles, bounce and drift periods over its first
  * 1000. */
+/* [output] file must name a file that is not the run file: found only at
+ * the rename, after the whole run, an empty name or a directory lost the
+ * run; the run file itself was replaced by the output. */
+static int check_output_path(struct gcp_section *s, const struct gcp_scene *sc,
+                             struct gcp_error *err)
+{
+    const char *o = sc->output;
+    const char *base = strrchr(o, '/') ? strrchr(o, '/') + 1 : o;
+    struct stat so, sr;
+    if (!*o) return gcp_section_error(s, "file", err, GCP_ERR_VALUE, "empty: name the output file");
+    if (!*base || strcmp(base, ".") == 0 || strcmp(base, "..") == 0 ||
+        (stat(o, &so) == 0 && S_ISDIR(so.st_mode)))
+        return gcp_section_error(s, "file", err, GCP_ERR_VALUE,
+                                 "'%s' is a directory: name the output file", o);
+    if (strcmp(o, sc->path) == 0 ||
+        (stat(o, &so) == 0 && stat(sc->path, &sr) == 0 && so.st_dev == sr.st_dev &&
+         so.st_ino == sr.st_ino))
+        return gcp_section_error(s, "file", err, GCP_ERR_VALUE,
+                                 "'%s' is the run file itself: name another output file", o);
+    return 0;
+}
+
 static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp_section *s,
                       struct gcp_error *err)
 {
@@ -535,6 +558,7 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
 
     s = gcp_run_file_section(rf, "output");
     if ((rc = gcp_section_string(s, "file", 1, sc->output, sizeof sc->output, err)) < 0) return rc;
+    if ((rc = check_output_path(s, sc, err))) return rc;
     int64_t traj_every, traj_samples;
     if ((rc = parse_trajectory(s, &traj_every, &traj_samples, err))) return rc;
     if ((rc = gcp_section_quantity(s, "checkpoint", GCP_Q_TIME, 0, &sc->checkpoint_every, err)) < 0)
@@ -569,6 +593,12 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
             return gcp_section_error(is, "dt", err, GCP_ERR_VALUE,
                                      "[%s]: %.3g steps per particle: dt is far too small for "
                                      "the duration", p->name, steps);
+        /* a step longer than the run (dt = 1e308 s) silently became one
+         * step of the whole duration */
+        if (p->dt > sc->duration * (1.0 + 1e-12))
+            return gcp_section_error(is, "dt", err, GCP_ERR_VALUE,
+                                     "[%s]: a step of %.3g s is longer than the run (%.3g s)",
+                                     p->name, p->dt, sc->duration);
         p->nsteps = steps < 1 ? 1 : (int64_t)steps;
         p->dt = sc->duration / (double)p->nsteps;
         if (traj_every) p->trajectory_every = traj_every;
