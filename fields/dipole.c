@@ -145,12 +145,115 @@ static void dipole_eval_block(const struct gcp_field *f, double t, size_t n, con
     }
 }
 
+/* One point of the block evaluation: B, and grad B and E as asked (the
+ * flags are constants in each caller below, so each loop is specialised and
+ * branch-free).  grad B written out component by component from the loop in
+ * dipole_eval, operation for operation (bit-identical results):
+ *   G_ij = a (-zf x_i x_j [+ z if i = j] [+ x_i if j = z] [+ x_j if i = z]). */
+static inline __attribute__((always_inline)) void
+dipole_soa_point(double c, double omega, int wantG, int wantE, size_t i, const double *restrict xa,
+                 const double *restrict ya, const double *restrict za,
+                 const struct gcp_field_soa *o)
+{
+    const double x = xa[i], y = ya[i], z = za[i];
+    double bx, by, bz;
+    dipole_B(c, x, y, z, &bx, &by, &bz);
+    o->B[0][i] = bx, o->B[1][i] = by, o->B[2][i] = bz;
+    if (wantG) {
+        const double r2 = dipole_r2(x, y, z), c5 = dipole_c5(c, r2);
+        const double a = -3.0 * c5, zf = 5.0 * z / r2;
+        const double px = -zf * x, py = -zf * y, pz = -zf * z;
+        o->G[0][0][i] = a * (px * x + z);
+        o->G[0][1][i] = a * (px * y);
+        o->G[0][2][i] = a * (px * z + x);
+        o->G[1][0][i] = a * (py * x);
+        o->G[1][1][i] = a * (py * y + z);
+        o->G[1][2][i] = a * (py * z + y);
+        o->G[2][0][i] = a * (pz * x + x);
+        o->G[2][1][i] = a * (pz * y + y);
+        o->G[2][2][i] = a * (((pz * z + z) + z) + z);
+    }
+    if (wantE) {
+        double ex, ey, ez;
+        dipole_E(omega, x, y, bx, by, bz, &ex, &ey, &ez);
+        o->E[0][i] = ex, o->E[1][i] = ey, o->E[2][i] = ez;
+    }
+}
+
+/* The SoA arrays never alias each other or the positions (the caller's
+ * scratch), which the local restrict copy of the output struct states. */
+#define DIPOLE_SOA_LOOP(G, E)                                                                  \
+    for (size_t i = 0; i < n; i++) dipole_soa_point(c, omega, G, E, i, x, y, z, &o)
+
+static void dipole_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                            const double *restrict x, const double *restrict y,
+                            const double *restrict z, const struct gcp_field_soa *out,
+                            int32_t *status)
+{
+    (void)t;
+    (void)status; /* defined everywhere; r_inner and r_outer are the scene's */
+    const struct dipole_params *p = f->params;
+    const double c = p->c, omega = p->omega;
+    const struct gcp_field_soa o = *out;
+    const int G = (need & GCP_NEED_GRADB) != 0, E = (need & GCP_NEED_E) && f->has_E;
+    if (G && E) DIPOLE_SOA_LOOP(1, 1);
+    else if (G) DIPOLE_SOA_LOOP(1, 0);
+    else if (E) DIPOLE_SOA_LOOP(0, 1);
+    else DIPOLE_SOA_LOOP(0, 0);
+    if ((need & GCP_NEED_E) && !f->has_E) zero3(n, o.E[0], o.E[1], o.E[2]);
+}
+#undef DIPOLE_SOA_LOOP
+
+/* A = A_phi phihat, A_phi = -c R / r^3 (header comment), written
+ * A = a (-y, x, 0) with a = -c / r^3, da/dx_j = 3 c x_j / r^5.
+ * Corotation E = -(Omega x r) x B = -grad(Omega R A_phi): phi = Omega R A_phi. */
+static int dipole_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                            double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct dipole_params *p = f->params;
+    double r2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+    r2 = r2 > DIPOLE_R2_MIN ? r2 : DIPOLE_R2_MIN; /* the floor of dipole_r2 */
+    const double r = sqrt(r2), ir3 = 1.0 / (r2 * r);
+    const double a = -p->c * ir3;
+    const double f5 = 3.0 * p->c * ir3 / r2;
+    const double da[3] = {f5 * x[0], f5 * x[1], f5 * x[2]};
+    gcp_field_axial_potential(x, a, da, A, dA);
+    if (phi) *phi = p->omega * (x[0] * A[1] - x[1] * A[0]); /* Omega R A_phi */
+    return 0;
+}
+
+/* psi = R A_phi = -c R^2 / r^3: constant on a field line (R^2/r^3 = 1/(L R_E)). */
+static int dipole_psi(const struct gcp_field *f, const double x[3], double *psi)
+{
+    double A[3];
+    dipole_potential(f, 0.0, x, A, NULL, NULL);
+    *psi = x[0] * A[1] - x[1] * A[0];
+    return 0;
+}
+
+/* |B| at (R_E, 0, 0) evaluated, not c / R_E^3 read back: the number the
+ * invariant observer has always used for L (bit-identical results). */
+static double dipole_B0(const struct gcp_field *f)
+{
+    const struct dipole_params *p = f->params;
+    double bx, by, bz;
+    dipole_B(p->c, GCP_EARTH_RADIUS, 0.0, 0.0, &bx, &by, &bz);
+    return sqrt(bx * bx + by * by + bz * bz);
+}
+
 const struct gcp_field_type gcp_field_dipole = {
     .name = "dipole",
     .doc = "Earth's centred dipole, moment along -z: [B0] [corotation] [atmosphere] [r_outer]",
     .eval = dipole_eval,
     .eval_block = dipole_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A | GCP_CAP_PSI | GCP_CAP_AXISYM |
+            GCP_CAP_DIPOLE_L,
+    .eval_soa = dipole_eval_soa,
+    .potential = dipole_potential,
+    .psi = dipole_psi,
+    .dipole_B0 = dipole_B0,
 };
 
 /* r_inner <= 0: no precipitation boundary; r_outer <= 0 or inf: no outer one. */

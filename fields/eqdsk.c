@@ -393,12 +393,19 @@ static void eqdsk_eval_block(const struct gcp_field *f, double t, size_t n, cons
     }
 }
 
+static int eqdsk_psi(const struct gcp_field *f, const double x[3], double *psi)
+{
+    return gcp_eqdsk_psi_RZ(f, hypot(x[0], x[1]), x[2], psi);
+}
+
 const struct gcp_field_type gcp_field_eqdsk = {
     .name = "eqdsk",
     .doc = "tokamak equilibrium from a G-EQDSK file (psi bicubic, F(psi) spline): file, [cocos]",
     .eval = eqdsk_eval,
     .eval_block = eqdsk_eval_block,
     .destroy = eqdsk_destroy,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_PSI | GCP_CAP_AXISYM,
+    .psi = eqdsk_psi,
 };
 
 int gcp_eqdsk_psi_RZ(const struct gcp_field *f, double R, double Z, double *psi)

@@ -18,6 +18,11 @@
  * INFINITY, no E, static, not axisymmetric.  NULL when out of memory. */
 struct gcp_field *gcp_field_alloc(const struct gcp_field_type *type, size_t params_size);
 
+/* A = a(x) (-y, x, 0) (an axisymmetric A_phi = a R) with the gradient da
+ * of a: fills A and, when dA != NULL, dA[i][j] = dA_i/dx_j (field.c). */
+void gcp_field_axial_potential(const double x[3], double a, const double da[3], double A[3],
+                               double dA[3][3]);
+
 /* Run-file readers: read the model's keys of [field], validate them, reject
  * unknown keys, build the field.  0, or a negative code with err set; *out
  * is NULL on error. */

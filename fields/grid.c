@@ -405,6 +405,8 @@ static int grid_eval(const struct gcp_field *f, double t, const double x[3],
 }
 
 
+static int grid_psi(const struct gcp_field *f, const double x[3], double *psi);
+
 const struct gcp_field_type gcp_field_grid = {
     .name = "grid",
     .doc = "B (and E) interpolated from an HDF5 grid file (2D R-Z or 3D x-y-z): file, "
@@ -414,6 +416,8 @@ const struct gcp_field_type gcp_field_grid = {
      * (one indirect call each) is as fast as a specialised one */
     .eval_block = gcp_field_eval_block_generic,
     .destroy = grid_destroy,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_PSI | GCP_CAP_AXISYM,
+    .psi = grid_psi,
 };
 
 struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
@@ -480,6 +484,7 @@ struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
     g->Rmin = axi ? 1e-9 * d->spacing[0] : 0.0;
     f->has_E = g->has_E;
     f->axisymmetric = axi;
+    if (!g->has_psi) f->caps_off |= GCP_CAP_PSI;
     f->r_inner = d->r_inner > 0.0 ? d->r_inner : 0.0;
     f->r_outer = d->r_outer > 0.0 ? d->r_outer : INFINITY;
     f->z_max = d->z_max > 0.0 ? d->z_max : INFINITY;
@@ -507,10 +512,9 @@ int gcp_field_grid_load(const char *path, enum gcp_grid_interp interp, int use_p
     return 0;
 }
 
-int gcp_field_psi(const struct gcp_field *f, const double x[3], double *psi)
+/* psi (GCP_CAP_PSI only where the file has it: caps_off otherwise). */
+static int grid_psi(const struct gcp_field *f, const double x[3], double *psi)
 {
-    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_psi_RZ(f, hypot(x[0], x[1]), x[2], psi);
-    if (f->type != &gcp_field_grid) return GCP_ERR_STATE;
     const struct grid_params *g = f->params;
     if (!g->has_psi) return GCP_ERR_STATE;
     const double p[2] = {hypot(x[0], x[1]), x[2]};

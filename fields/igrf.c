@@ -309,6 +309,7 @@ const struct gcp_field_type gcp_field_igrf = {
     .eval = igrf_eval,
     .eval_block = igrf_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB,
 };
 
 struct gcp_field *gcp_field_igrf_create(const struct gcp_igrf_coeffs *c, int nmax, double r_inner,

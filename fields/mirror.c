@@ -90,12 +90,66 @@ static void mirror_eval_block(const struct gcp_field *f, double t, size_t n, con
     if (Ex) zero3(n, Ex, Ey, Ez);
 }
 
+/* One point of the block evaluation (flags constant in each loop below);
+ * grad B as in mirror_eval (bit-identical). */
+static inline __attribute__((always_inline)) void
+mirror_soa_point(const struct mirror_params *p, int wantG, size_t i, const double *restrict xa,
+                 const double *restrict ya, const double *restrict za,
+                 const struct gcp_field_soa *o)
+{
+    const double x = xa[i], y = ya[i], z = za[i];
+    double bx, by, bz;
+    mirror_B(p, x, y, z, &bx, &by, &bz);
+    o->B[0][i] = bx, o->B[1][i] = by, o->B[2][i] = bz;
+    if (wantG) {
+        const double k = p->k, kx = k * x, ky = k * y, kz = k * z;
+        o->G[0][0][i] = -kz, o->G[0][1][i] = 0.0, o->G[0][2][i] = -kx;
+        o->G[1][0][i] = 0.0, o->G[1][1][i] = -kz, o->G[1][2][i] = -ky;
+        o->G[2][0][i] = -kx, o->G[2][1][i] = -ky, o->G[2][2][i] = 2.0 * kz;
+    }
+}
+
+static void mirror_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                            const double *restrict x, const double *restrict y,
+                            const double *restrict z, const struct gcp_field_soa *out,
+                            int32_t *status)
+{
+    (void)t;
+    (void)status; /* z_max and r_outer are the scene's */
+    const struct mirror_params q = *(const struct mirror_params *)f->params;
+    const struct gcp_field_soa o = *out;
+    if (need & GCP_NEED_GRADB)
+        for (size_t i = 0; i < n; i++) mirror_soa_point(&q, 1, i, x, y, z, &o);
+    else
+        for (size_t i = 0; i < n; i++) mirror_soa_point(&q, 0, i, x, y, z, &o);
+    if (need & GCP_NEED_E) zero3(n, o.E[0], o.E[1], o.E[2]);
+}
+
+/* Bz = B0 + k (z^2 - R^2/2), B_R = -k R z, k = B0/Lm^2, from
+ *   A_phi = (R/2) [B0 + k (z^2 - R^2/4)]:  (1/R) d(R A_phi)/dR = Bz,
+ *   -dA_phi/dz = -k R z = B_R;  A = a (-y, x, 0), a = [B0 + k (z^2 - R^2/4)]/2. */
+static int mirror_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                            double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct mirror_params *p = f->params;
+    const double k = p->k;
+    const double a = 0.5 * (p->B0 + k * (x[2] * x[2] - 0.25 * (x[0] * x[0] + x[1] * x[1])));
+    const double da[3] = {-0.25 * k * x[0], -0.25 * k * x[1], k * x[2]};
+    gcp_field_axial_potential(x, a, da, A, dA);
+    if (phi) *phi = 0.0;
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_mirror = {
     .name = "mirror",
     .doc = "vacuum magnetic bottle Bz = B0 (1 + (z^2 - r^2/2)/Lm^2): B0, Lm, z_max [, r_max]",
     .eval = mirror_eval,
     .eval_block = mirror_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_A | GCP_CAP_AXISYM,
+    .eval_soa = mirror_eval_soa,
+    .potential = mirror_potential,
 };
 
 /* r_max <= 0 or infinite: no radial bound.  r_max becomes f->r_outer, which

@@ -176,12 +176,119 @@ static void tokamak_eval_block(const struct gcp_field *f, double t, size_t n, co
     if (Ex) zero3(n, Ex, Ey, Ez);
 }
 
+/* One point of the block evaluation; grad B as in tokamak_eval, operation
+ * for operation (bit-identical).  Returns r^2 for the domain test. */
+static inline __attribute__((always_inline)) double
+tok_soa_point(const struct tokamak_params *p, int wantG, size_t i, const double *restrict xa,
+              const double *restrict ya, const double *restrict za, const struct gcp_field_soa *o)
+{
+    const double x = xa[i], y = ya[i], z = za[i];
+    double bx, by, bz;
+    const double r2 = tok_B(p, x, y, z, &bx, &by, &bz);
+    o->B[0][i] = bx, o->B[1][i] = by, o->B[2][i] = bz;
+    if (wantG) {
+        double R2 = x * x + y * y;
+        R2 = R2 > p->R2min ? R2 : p->R2min;
+        const double R = sqrt(R2), u = 1.0 / R2, w = (R - p->R0) / R;
+        double q = p->q0 + p->dq * r2;
+        q = q > p->qmin ? q : p->qmin;
+        const double F = p->B0 / q, G = F * z, Fp = -F * p->dq / q;
+        const double dFx = 2.0 * Fp * w * x, dFy = 2.0 * Fp * w * y, dFz = 2.0 * Fp * z;
+        const double dGx = z * dFx, dGy = z * dFy, dGz = z * dFz + F;
+        const double P = G * x + p->B0R0 * y, Q = p->B0R0 * x - G * y;
+        const double u2 = u * u, FR0R3 = F * p->R0 * u / R;
+        o->G[0][0][i] = -(x * dGx + G) * u + 2.0 * x * P * u2;
+        o->G[0][1][i] = -(x * dGy + p->B0R0) * u + 2.0 * y * P * u2;
+        o->G[0][2][i] = -x * dGz * u;
+        o->G[1][0][i] = (p->B0R0 - y * dGx) * u - 2.0 * x * Q * u2;
+        o->G[1][1][i] = -(y * dGy + G) * u - 2.0 * y * Q * u2;
+        o->G[1][2][i] = -y * dGz * u;
+        o->G[2][0][i] = dFx * w + FR0R3 * x;
+        o->G[2][1][i] = dFy * w + FR0R3 * y;
+        o->G[2][2][i] = dFz * w;
+    }
+    return r2;
+}
+
+#define TOK_SOA_LOOP(G)                                                                        \
+    do {                                                                                       \
+        if (st)                                                                                \
+            for (size_t i = 0; i < n; i++) {                                                   \
+                const double r2 = tok_soa_point(&p, G, i, x, y, z, &o);                        \
+                const int32_t s0 = st[i];                                                      \
+                st[i] = s0 + (int32_t)(s0 == 0) * (int32_t)(r2 > p.a2) * GCP_LEFT_DOMAIN;      \
+            }                                                                                  \
+        else                                                                                   \
+            for (size_t i = 0; i < n; i++) tok_soa_point(&p, G, i, x, y, z, &o);               \
+    } while (0)
+
+static void tokamak_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                             const double *restrict x, const double *restrict y,
+                             const double *restrict z, const struct gcp_field_soa *out,
+                             int32_t *status)
+{
+    (void)t;
+    const struct tokamak_params p = *(const struct tokamak_params *)f->params;
+    const struct gcp_field_soa o = *out;
+    int32_t *restrict st = status;
+    if (need & GCP_NEED_GRADB) TOK_SOA_LOOP(1);
+    else TOK_SOA_LOOP(0);
+    if (need & GCP_NEED_E) zero3(n, o.E[0], o.E[1], o.E[2]);
+}
+#undef TOK_SOA_LOOP
+
+/* B_phi = B0 R0 / R from A_R = B0 R0 Z / R (curl_phi = dA_R/dZ = B0 R0/R;
+ * curl_R = curl_Z = 0), and B_pol = grad psi x grad phi = curl(psi grad phi)
+ * from A_phi = psi / R, with
+ *   psi(r) = int_0^r B0 r'/q(r') dr' = (B0/(2 dq)) ln(1 + dq r^2/q0)
+ * (= B0 r^2/(2 q0) for dq = 0), r^2 = (R - R0)^2 + Z^2.  Cartesian:
+ * A_x = (g x - psi y)/R^2, A_y = (g y + psi x)/R^2, A_z = 0, g = B0 R0 z;
+ * dpsi/dx = F w x, dpsi/dy = F w y, dpsi/dz = F z, F = B0/q(r), w = (R - R0)/R. */
+static int tokamak_potential(const struct gcp_field *f, double t, const double xv[3],
+                             double A[3], double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct tokamak_params *p = f->params;
+    const double x = xv[0], y = xv[1], z = xv[2];
+    double s = x * x + y * y;
+    s = s > p->R2min ? s : p->R2min;
+    const double R = sqrt(s), is = 1.0 / s;
+    const double dR = R - p->R0;
+    const double r2 = dR * dR + z * z;
+    /* psi = B0 r^2/(2 q0) * log1p(v)/v, v = dq r^2 / q0 (-> 1 as v -> 0) */
+    const double v = p->dq * r2 / p->q0;
+    const double lv = v != 0.0 ? log1p(v) / v : 1.0;
+    const double psi = p->B0 * r2 / (2.0 * p->q0) * lv;
+    const double g = p->B0R0 * z;
+    A[0] = (g * x - psi * y) * is;
+    A[1] = (g * y + psi * x) * is;
+    A[2] = 0.0;
+    if (dA) {
+        const double q = p->q0 + p->dq * r2; /* unclamped: exact inside the plasma */
+        const double F = p->B0 / q, w = dR / R;
+        const double px = F * w * x, py = F * w * y, pz = F * z;
+        const double P = g * x - psi * y, Q = g * y + psi * x, is2 = is * is;
+        dA[0][0] = (g - y * px) * is - 2.0 * x * P * is2;
+        dA[0][1] = (-psi - y * py) * is - 2.0 * y * P * is2;
+        dA[0][2] = (p->B0R0 * x - y * pz) * is;
+        dA[1][0] = (psi + x * px) * is - 2.0 * x * Q * is2;
+        dA[1][1] = (g + x * py) * is - 2.0 * y * Q * is2;
+        dA[1][2] = (p->B0R0 * y + x * pz) * is;
+        dA[2][0] = dA[2][1] = dA[2][2] = 0.0;
+    }
+    if (phi) *phi = 0.0;
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_tokamak = {
     .name = "tokamak",
     .doc = "analytic circular tokamak, q(r) = q0 + (qa - q0)(r/a)^2: B0, R0, a, q0, qa",
     .eval = tokamak_eval,
     .eval_block = tokamak_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_A | GCP_CAP_AXISYM,
+    .eval_soa = tokamak_eval_soa,
+    .potential = tokamak_potential,
 };
 
 struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, double q0, double qa)

@@ -53,12 +53,50 @@ static void uniform_eval_block(const struct gcp_field *f, double t, size_t n, co
     }
 }
 
+static void uniform_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                             const double *x, const double *y, const double *z,
+                             const struct gcp_field_soa *out, int32_t *status)
+{
+    (void)t, (void)x, (void)y, (void)z, (void)status;
+    const struct uniform_params *p = f->params;
+    for (int a = 0; a < 3; a++) {
+        if (need & GCP_NEED_B) fill(n, p->B[a], out->B[a]);
+        if (need & GCP_NEED_E) fill(n, p->E[a], out->E[a]);
+        if (need & GCP_NEED_GRADB)
+            for (int c = 0; c < 3; c++) fill(n, 0.0, out->G[a][c]);
+    }
+}
+
+/* A = (1/2) B x x, dA_i/dx_l = (1/2) eps_ijl B_j;  phi = -E.x. */
+static int uniform_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                             double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct uniform_params *p = f->params;
+    const double *B = p->B;
+    A[0] = 0.5 * (B[1] * x[2] - B[2] * x[1]);
+    A[1] = 0.5 * (B[2] * x[0] - B[0] * x[2]);
+    A[2] = 0.5 * (B[0] * x[1] - B[1] * x[0]);
+    if (dA) {
+        dA[0][0] = 0.0, dA[0][1] = -0.5 * B[2], dA[0][2] = 0.5 * B[1];
+        dA[1][0] = 0.5 * B[2], dA[1][1] = 0.0, dA[1][2] = -0.5 * B[0];
+        dA[2][0] = -0.5 * B[1], dA[2][1] = 0.5 * B[0], dA[2][2] = 0.0;
+    }
+    if (phi) *phi = -(p->E[0] * x[0] + p->E[1] * x[1] + p->E[2] * x[2]);
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_uniform = {
     .name = "uniform",
     .doc = "constant B (and optional E): B = 0 0 1 T, E = 0 0 0 V/m",
     .eval = uniform_eval,
     .eval_block = uniform_eval_block,
     .destroy = NULL,
+    /* not GCP_CAP_AXISYM: B may point anywhere (the symmetric gauge above
+     * is about B, not z, so p_phi is not a constant of a tilted B) */
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A,
+    .eval_soa = uniform_eval_soa,
+    .potential = uniform_potential,
 };
 
 /* E may be NULL (no electric field). */
