@@ -30,7 +30,9 @@ PKGS     := hdf5-openmpi gsl inih
 CSTD     := -std=c11 -D_POSIX_C_SOURCE=200809L -fno-math-errno
 WARN     := -Wall -Wextra -Werror
 CPPFLAGS += -Iinclude -Isrc -Ifields
-CFLAGS   := $(CSTD) $(WARN) $(OPTFLAGS) -fPIC $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+# -fvisibility=hidden: libgcpush.so exports only what the public headers
+# declare (include/gcpush/api.h); tests/cli/test_layers.sh checks it.
+CFLAGS   := $(CSTD) $(WARN) $(OPTFLAGS) -fPIC -fvisibility=hidden $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lm
 GIT_HASH := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
 CPPFLAGS += -DGCP_VERSION='"$(VERSION)"' -DGCP_GIT_HASH='"$(GIT_HASH)"' \

@@ -15,6 +15,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "units.h"
+#include "api.h"
+GCP_API_BEGIN
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -153,10 +157,8 @@ struct gcp_field {
 #define GCP_PI 3.14159265358979323846 /* pi (M_PI is not ISO C) */
 #endif
 
-/* Physical constants of the Earth models. */
-#define GCP_EARTH_RADIUS 6.3712e6    /* R_E [m] (IGRF reference radius) */
-#define GCP_EARTH_B0 3.12e-5         /* equatorial surface dipole field [T] */
-#define GCP_EARTH_OMEGA 7.2921159e-5 /* Earth's sidereal rotation rate [rad/s] */
+/* The Earth's constants (GCP_EARTH_RADIUS, GCP_EARTH_B0, GCP_EARTH_OMEGA)
+ * live in units.h, below the fields layer (the RE unit needs the radius). */
 
 /* Built-in models. */
 extern const struct gcp_field_type gcp_field_uniform;
@@ -232,4 +234,5 @@ void gcp_field_eval_block_generic(const struct gcp_field *f, double t, size_t n,
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_FIELD_H */

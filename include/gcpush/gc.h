@@ -30,6 +30,8 @@
 
 #include "field.h"
 #include "pusher.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -110,4 +112,5 @@ int gcp_gc_push(const struct gcp_field *f, const struct gcp_pusher_type *p, doub
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_GC_H */

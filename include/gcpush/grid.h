@@ -17,6 +17,8 @@
 #include "error.h"
 #include "field.h"
 #include "section.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -154,4 +156,5 @@ struct gcp_field *gcp_field_igrf_create(const struct gcp_igrf_coeffs *c, int nma
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_GRID_H */

@@ -13,10 +13,13 @@
 
 #include "error.h"
 #include "field.h"
+#include "invariants.h"
 #include "particles.h"
 #include "pusher.h"
 #include "section.h"
 #include "units.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -99,17 +102,13 @@ void gcp_scene_free(struct gcp_scene *s);
 int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3],
                             double u[3]);
 
-/* The period of `which` for a particle of species sp with state (x, u) in
- * field f: gyro 2 pi gamma m / (|q| B) anywhere; bounce and drift in the
- * dipole from guiding-centre theory.  Returns 0 or GCP_ERR_STATE when the
- * field has no such period. */
 /* `gcpush grid FILE.run`: samples the file's [scene] field with its [field]
  * keys onto the grid of its [grid] section; the grid file's path is copied
  * to out.  0, or a negative code with err set (no file left on failure). */
 int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err);
 
-int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp_species *sp,
-                  const double x[3], const double u[3], enum gcp_period which, double *period);
+/* gcp_period_of (the gyro, bounce and drift periods) is a diagnostic:
+ * invariants.h, included here. */
 
 struct gcp_results;
 
@@ -145,4 +144,5 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

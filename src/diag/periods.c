@@ -21,7 +21,9 @@
 #include <gsl/gsl_integration.h>
 
 #include "gcpush/kernels.h"
-#include "gcpush/run.h"
+#include "gcpush/error.h"
+#include "gcpush/invariants.h"
+#include "gcpush/particles.h"
 
 struct bounce_ctx {
     double y2;   /* sin^2 a_eq */
