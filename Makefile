@@ -48,7 +48,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 # only (no MPI, no HDF5), compiled by clang into one binary.
 FUZZ_SECONDS ?= 600
 FUZZER   := build-fuzz/fuzz_runfile
-FUZZ_SRC := src/error.c src/units.c src/particles.c src/run/section.c src/run/runfile.c \
+FUZZ_SRC := src/error.c src/units.c src/particles.c src/run/section.c src/run/runfile.c src/run/field_keys.c \
             src/run/scene.c src/run/sweep.c src/run/sweep_exact.c src/diag/periods.c src/diag/invariants.c \
             src/pushers/block.c src/pushers/fo_step.c \
             $(wildcard src/pushers/boris*.c src/pushers/vay.c src/pushers/higuera_cary.c) \

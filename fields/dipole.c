@@ -248,6 +248,42 @@ static double dipole_B0(const struct gcp_field *f)
     return sqrt(bx * bx + by * by + bz * bz);
 }
 
+/* Keys, all optional:
+ *   B0         equatorial surface field, default GCP_EARTH_B0 = 3.12e-5 T
+ *   corotation yes/no, default no (adds E = -(Omega x r) x B)
+ *   atmosphere altitude of the loss boundary, default 100 km:
+ *              r_inner = R_E + atmosphere, below it a particle PRECIPITATES
+ *   r_outer    default 15 RE, beyond it a particle has LEFT_DOMAIN */
+enum { DK_B0, DK_COROT, DK_ATM, DK_ROUT };
+static const struct gcp_field_key dipole_keys[] = {
+    {"B0", GCP_KEY_QUANTITY, GCP_Q_BFIELD, 0, {GCP_EARTH_B0, 0, 0}, NULL,
+     "equatorial surface field [T]"},
+    {"corotation", GCP_KEY_FLAG, 0, 0, {0, 0, 0}, NULL, "add the corotation E field"},
+    {"atmosphere", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {100e3, 0, 0}, NULL,
+     "altitude of the loss boundary [m]"},
+    {"r_outer", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {15.0 * GCP_EARTH_RADIUS, 0, 0}, NULL,
+     "outer boundary [m]"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int dipole_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const double B0 = a->v[DK_B0][0], alt = a->v[DK_ATM][0], r_outer = a->v[DK_ROUT][0];
+    if (!(B0 > 0.0 && isfinite(B0)))
+        return gcp_field_key_error(a, DK_B0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g T", B0);
+    if (!(alt >= 0.0 && isfinite(alt)))
+        return gcp_field_key_error(a, DK_ATM, err, GCP_ERR_VALUE,
+                                   "altitude must be >= 0 and finite, got %g m", alt);
+    const double r_inner = GCP_EARTH_RADIUS + alt;
+    if (!(r_outer > r_inner && isfinite(r_outer)))
+        return gcp_field_key_error(a, DK_ROUT, err, GCP_ERR_VALUE,
+                                   "must be finite and above the atmosphere (%g m), got %g m",
+                                   r_inner, r_outer);
+    *out = gcp_field_dipole_create(B0, a->v[DK_COROT][0] != 0.0, r_inner, r_outer);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "dipole field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_dipole = {
     .name = "dipole",
     .doc = "Earth's centred dipole, moment along -z: [B0] [corotation] [atmosphere] [r_outer]",
@@ -260,6 +296,8 @@ const struct gcp_field_type gcp_field_dipole = {
     .potential = dipole_potential,
     .psi = dipole_psi,
     .dipole_B0 = dipole_B0,
+    .keys = dipole_keys,
+    .build = dipole_build,
 };
 
 /* r_inner <= 0: no precipitation boundary; r_outer <= 0 or inf: no outer one. */
@@ -278,37 +316,3 @@ struct gcp_field *gcp_field_dipole_create(double B0, int corotation, double r_in
     return f;
 }
 
-/* Keys, all optional:
- *   B0         equatorial surface field, default GCP_EARTH_B0 = 3.12e-5 T
- *   corotation yes/no, default no (adds E = -(Omega x r) x B)
- *   atmosphere altitude of the loss boundary, default 100 km:
- *              r_inner = R_E + atmosphere, below it a particle PRECIPITATES
- *   r_outer    default 15 RE, beyond it a particle has LEFT_DOMAIN */
-int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                  struct gcp_error *err)
-{
-    double B0 = GCP_EARTH_B0, alt = 100e3, r_outer = 15.0 * GCP_EARTH_RADIUS;
-    int corot = 0, rc;
-    *out = NULL;
-    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 0, &B0, err)) < 0) return rc;
-    if ((rc = gcp_section_flag(sec, "corotation", 0, &corot, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "atmosphere", GCP_Q_LENGTH, 0, &alt, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "r_outer", GCP_Q_LENGTH, 0, &r_outer, err)) < 0)
-        return rc;
-    if (!(B0 > 0.0 && isfinite(B0)))
-        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g T", B0);
-    if (!(alt >= 0.0 && isfinite(alt)))
-        return gcp_section_error(sec, "atmosphere", err, GCP_ERR_VALUE,
-                                 "altitude must be >= 0 and finite, got %g m", alt);
-    const double r_inner = GCP_EARTH_RADIUS + alt;
-    if (!(r_outer > r_inner && isfinite(r_outer)))
-        return gcp_section_error(sec, "r_outer", err, GCP_ERR_VALUE,
-                                 "must be finite and above the atmosphere (%g m), got %g m",
-                                 r_inner, r_outer);
-    if ((rc = gcp_section_check_unused(sec, "B0 corotation atmosphere r_outer", err)) < 0)
-        return rc;
-    *out = gcp_field_dipole_create(B0, corot, r_inner, r_outer);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "dipole field: out of memory");
-    return 0;
-}

@@ -6,6 +6,7 @@
  * adding a model is one line in `models` below.
  */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,16 +21,9 @@
  * pointer cannot come from a run file. */
 #define GCP_FIELD_MODELS(X) X(uniform) X(mirror) X(dipole) X(tokamak) X(grid) X(eqdsk) X(igrf)
 
-#define GCP_MODEL_ENTRY_(n) {&gcp_field_##n, gcp_field_##n##_from_section},
 #define GCP_MODEL_TYPE_(n) &gcp_field_##n,
-static const struct {
-    const struct gcp_field_type *type;
-    int (*from_section)(struct gcp_section *, struct gcp_field **, struct gcp_error *);
-} models[] = {GCP_FIELD_MODELS(GCP_MODEL_ENTRY_)};
-#define N_MODELS (sizeof models / sizeof models[0])
-
-static const struct gcp_field_type *const type_list[N_MODELS + 1] = {
-    GCP_FIELD_MODELS(GCP_MODEL_TYPE_) NULL};
+static const struct gcp_field_type *const type_list[] = {GCP_FIELD_MODELS(GCP_MODEL_TYPE_) NULL};
+#define N_MODELS (sizeof type_list / sizeof type_list[0] - 1)
 
 const char *gcp_field_model_names(char *buf, size_t size)
 {
@@ -37,7 +31,7 @@ const char *gcp_field_model_names(char *buf, size_t size)
     if (!buf || size == 0) return "";
     buf[0] = '\0';
     for (size_t i = 0; i < N_MODELS && used < size; i++) {
-        const int w = snprintf(buf + used, size - used, "%s%s", i ? " " : "", models[i].type->name);
+        const int w = snprintf(buf + used, size - used, "%s%s", i ? " " : "", type_list[i]->name);
         if (w < 0) break;
         used += (size_t)w;
     }
@@ -50,7 +44,7 @@ const struct gcp_field_type *gcp_field_type_lookup(const char *name)
 {
     if (!name) return NULL;
     for (size_t i = 0; i < N_MODELS; i++)
-        if (strcmp(models[i].type->name, name) == 0) return models[i].type;
+        if (strcmp(type_list[i]->name, name) == 0) return type_list[i];
     return NULL;
 }
 
@@ -70,32 +64,6 @@ struct gcp_field *gcp_field_alloc(const struct gcp_field_type *type, size_t para
     f->r_outer = INFINITY;
     f->z_max = INFINITY;
     return f;
-}
-
-int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
-                           struct gcp_error *err)
-{
-    if (!out) return gcp_error_set(err, GCP_ERR_STATE, "gcp_field_from_section: out is NULL");
-    *out = NULL;
-    if (!sec) return gcp_error_set(err, GCP_ERR_STATE, "gcp_field_from_section: no [field] section");
-    for (size_t i = 0; model && i < N_MODELS; i++)
-        if (strcmp(models[i].type->name, model) == 0) {
-            int rc = models[i].from_section(sec, out, err);
-            if (rc < 0) {
-                /* The readers build the field last, so there is nothing to
-                 * free; this only guards a reader that forgets *out = NULL. */
-                gcp_field_free(*out);
-                *out = NULL;
-            }
-            return rc < 0 ? rc : 0;
-        }
-    /* The model name comes from [scene] field = ..., whose line the caller
-     * knows; name the [field] section here so the user can find the run. */
-    char names[256];
-    return gcp_error_set(err, GCP_ERR_UNKNOWN,
-                         "%s:%d: [%s] unknown field model '%.60s' (expected one of: %s)",
-                         sec->file ? sec->file : "(run)", sec->line, sec->name ? sec->name : "field",
-                         model ? model : "(none)", gcp_field_model_names(names, sizeof names));
 }
 
 void gcp_field_free(struct gcp_field *f)
@@ -128,6 +96,18 @@ void gcp_field_axial_potential(const double x[3], double a, const double da[3], 
     }
     dA[0][1] -= a;
     dA[1][0] += a;
+}
+
+int gcp_field_key_error(struct gcp_field_args *args, int k, struct gcp_error *err, int code,
+                        const char *fmt, ...)
+{
+    char what[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    args->bad_key = k;
+    return gcp_error_set(err, code, "%s", what);
 }
 
 unsigned gcp_field_caps(const struct gcp_field *f)

@@ -405,6 +405,33 @@ static int grid_eval(const struct gcp_field *f, double t, const double x[3],
 }
 
 
+/* Keys: file (required), interpolation = cubic | linear (default cubic),
+ * use_psi = yes | no (default: only when the file has psi and no BR/BZ). */
+enum { GK_FILE, GK_INTERP, GK_PSI };
+static const struct gcp_field_key grid_keys[] = {
+    {"file", GCP_KEY_STRING, 0, 1, {0, 0, 0}, NULL, "HDF5 grid file (fields/README.md)"},
+    {"interpolation", GCP_KEY_STRING, 0, 0, {0, 0, 0}, "cubic", "cubic | linear"},
+    {"use_psi", GCP_KEY_FLAG, 0, 0, {0, 0, 0}, NULL, "poloidal B from psi (default: when no BR/BZ)"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int grid_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const char *interp = a->text[GK_INTERP];
+    const int use_psi = a->given[GK_PSI] ? (a->v[GK_PSI][0] != 0.0) : -1;
+    enum gcp_grid_interp ip;
+    if (strcmp(interp, "cubic") == 0)
+        ip = GCP_INTERP_CUBIC;
+    else if (strcmp(interp, "linear") == 0)
+        ip = GCP_INTERP_LINEAR;
+    else
+        return gcp_field_key_error(a, GK_INTERP, err, GCP_ERR_VALUE,
+                                   "expected cubic or linear, got '%s'", interp);
+    struct gcp_error e2 = {0, ""};
+    const int rc = gcp_field_grid_load(a->text[GK_FILE], ip, use_psi, out, &e2);
+    if (rc) return gcp_field_key_error(a, GK_FILE, err, rc, "%s", e2.msg);
+    return 0;
+}
+
 static int grid_psi(const struct gcp_field *f, const double x[3], double *psi);
 
 const struct gcp_field_type gcp_field_grid = {
@@ -418,6 +445,8 @@ const struct gcp_field_type gcp_field_grid = {
     .destroy = grid_destroy,
     .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_PSI | GCP_CAP_AXISYM,
     .psi = grid_psi,
+    .keys = grid_keys,
+    .build = grid_build,
 };
 
 struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
@@ -526,30 +555,3 @@ static int grid_psi(const struct gcp_field *f, const double x[3], double *psi)
     return out ? GCP_LEFT_GRID : 0;
 }
 
-/* Keys: file (required), interpolation = cubic | linear (default cubic),
- * use_psi = yes | no (default: only when the file has psi and no BR/BZ). */
-int gcp_field_grid_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                struct gcp_error *err)
-{
-    char file[1024], interp[32] = "cubic";
-    int use_psi = -1, rc;
-    *out = NULL;
-    if ((rc = gcp_section_string(sec, "file", 1, file, sizeof file, err)) < 0) return rc;
-    if ((rc = gcp_section_string(sec, "interpolation", 0, interp, sizeof interp, err)) < 0)
-        return rc;
-    if ((rc = gcp_section_flag(sec, "use_psi", 0, &use_psi, err)) < 0) return rc;
-    if (rc == 0) use_psi = -1;
-    enum gcp_grid_interp ip;
-    if (strcmp(interp, "cubic") == 0)
-        ip = GCP_INTERP_CUBIC;
-    else if (strcmp(interp, "linear") == 0)
-        ip = GCP_INTERP_LINEAR;
-    else
-        return gcp_section_error(sec, "interpolation", err, GCP_ERR_VALUE,
-                                 "expected cubic or linear, got '%s'", interp);
-    if ((rc = gcp_section_check_unused(sec, "file interpolation use_psi", err)) < 0) return rc;
-    struct gcp_error e2 = {0, ""};
-    rc = gcp_field_grid_load(file, ip, use_psi, out, &e2);
-    if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
-    return 0;
-}

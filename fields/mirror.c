@@ -141,6 +141,37 @@ static int mirror_potential(const struct gcp_field *f, double t, const double x[
     return 0;
 }
 
+/* Keys: B0 (field, > 0), Lm (length, > 0), z_max (length, > 0: particles
+ * beyond |z| = z_max have left the bottle), r_max (length, optional). */
+enum { MK_B0, MK_LM, MK_ZMAX, MK_RMAX };
+static const struct gcp_field_key mirror_keys[] = {
+    {"B0", GCP_KEY_QUANTITY, GCP_Q_BFIELD, 1, {0, 0, 0}, NULL, "field at the centre [T]"},
+    {"Lm", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "length over which B doubles [m]"},
+    {"z_max", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "|z| beyond which particles leave [m]"},
+    {"r_max", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {INFINITY, 0, 0}, NULL, "radial bound [m] (none)"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int mirror_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const double B0 = a->v[MK_B0][0], Lm = a->v[MK_LM][0], z_max = a->v[MK_ZMAX][0];
+    const double r_max = a->v[MK_RMAX][0];
+    if (!(B0 > 0.0 && isfinite(B0)))
+        return gcp_field_key_error(a, MK_B0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g T", B0);
+    if (!(Lm > 0.0 && isfinite(Lm)))
+        return gcp_field_key_error(a, MK_LM, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", Lm);
+    if (!(z_max > 0.0 && isfinite(z_max)))
+        return gcp_field_key_error(a, MK_ZMAX, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", z_max);
+    if (a->given[MK_RMAX] && !(r_max > 0.0 && isfinite(r_max)))
+        return gcp_field_key_error(a, MK_RMAX, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", r_max);
+    *out = gcp_field_mirror_create(B0, Lm, z_max, r_max);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "mirror field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_mirror = {
     .name = "mirror",
     .doc = "vacuum magnetic bottle Bz = B0 (1 + (z^2 - r^2/2)/Lm^2): B0, Lm, z_max [, r_max]",
@@ -150,6 +181,8 @@ const struct gcp_field_type gcp_field_mirror = {
     .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_A | GCP_CAP_AXISYM,
     .eval_soa = mirror_eval_soa,
     .potential = mirror_potential,
+    .keys = mirror_keys,
+    .build = mirror_build,
 };
 
 /* r_max <= 0 or infinite: no radial bound.  r_max becomes f->r_outer, which
@@ -169,33 +202,3 @@ struct gcp_field *gcp_field_mirror_create(double B0, double Lm, double z_max, do
     return f;
 }
 
-/* Keys: B0 (field, > 0), Lm (length, > 0), z_max (length, > 0: particles
- * beyond |z| = z_max have left the bottle), r_max (length, optional). */
-int gcp_field_mirror_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                  struct gcp_error *err)
-{
-    double B0, Lm, z_max, r_max = INFINITY;
-    int rc;
-    *out = NULL;
-    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 1, &B0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "Lm", GCP_Q_LENGTH, 1, &Lm, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "z_max", GCP_Q_LENGTH, 1, &z_max, err)) < 0) return rc;
-    int has_r = gcp_section_quantity(sec, "r_max", GCP_Q_LENGTH, 0, &r_max, err);
-    if (has_r < 0) return has_r;
-    if (!(B0 > 0.0 && isfinite(B0)))
-        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g T", B0);
-    if (!(Lm > 0.0 && isfinite(Lm)))
-        return gcp_section_error(sec, "Lm", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", Lm);
-    if (!(z_max > 0.0 && isfinite(z_max)))
-        return gcp_section_error(sec, "z_max", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", z_max);
-    if (has_r && !(r_max > 0.0 && isfinite(r_max)))
-        return gcp_section_error(sec, "r_max", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", r_max);
-    if ((rc = gcp_section_check_unused(sec, "B0 Lm z_max r_max", err)) < 0) return rc;
-    *out = gcp_field_mirror_create(B0, Lm, z_max, r_max);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "mirror field: out of memory");
-    return 0;
-}

@@ -280,6 +280,42 @@ static int tokamak_potential(const struct gcp_field *f, double t, const double x
     return 0;
 }
 
+/* Keys, all required: B0 (field on axis, non-zero; its sign sets the field
+ * direction), R0 (major radius), a (minor radius, 0 < a < R0), q0, qa
+ * (numbers > 0). */
+enum { TK_B0, TK_R0, TK_A, TK_Q0, TK_QA };
+static const struct gcp_field_key tokamak_keys[] = {
+    {"B0", GCP_KEY_QUANTITY, GCP_Q_BFIELD, 1, {0, 0, 0}, NULL, "toroidal field on axis [T]"},
+    {"R0", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "major radius [m]"},
+    {"a", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "minor radius [m]"},
+    {"q0", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 1, {0, 0, 0}, NULL, "safety factor on axis"},
+    {"qa", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 1, {0, 0, 0}, NULL, "safety factor at r = a"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int tokamak_build(struct gcp_field_args *k, struct gcp_field **out, struct gcp_error *err)
+{
+    const double B0 = k->v[TK_B0][0], R0 = k->v[TK_R0][0], a = k->v[TK_A][0];
+    const double q0 = k->v[TK_Q0][0], qa = k->v[TK_QA][0];
+    if (!(B0 != 0.0 && isfinite(B0)))
+        return gcp_field_key_error(k, TK_B0, err, GCP_ERR_VALUE,
+                                   "must be non-zero and finite, got %g T", B0);
+    if (!(R0 > 0.0 && isfinite(R0)))
+        return gcp_field_key_error(k, TK_R0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", R0);
+    if (!(a > 0.0 && a < R0))
+        return gcp_field_key_error(k, TK_A, err, GCP_ERR_VALUE,
+                                   "minor radius must be in (0, R0 = %g m), got %g m", R0, a);
+    if (!(q0 > 0.0 && isfinite(q0)))
+        return gcp_field_key_error(k, TK_Q0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g", q0);
+    if (!(qa > 0.0 && isfinite(qa)))
+        return gcp_field_key_error(k, TK_QA, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g", qa);
+    *out = gcp_field_tokamak_create(B0, R0, a, q0, qa);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "tokamak field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_tokamak = {
     .name = "tokamak",
     .doc = "analytic circular tokamak, q(r) = q0 + (qa - q0)(r/a)^2: B0, R0, a, q0, qa",
@@ -289,6 +325,8 @@ const struct gcp_field_type gcp_field_tokamak = {
     .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_A | GCP_CAP_AXISYM,
     .eval_soa = tokamak_eval_soa,
     .potential = tokamak_potential,
+    .keys = tokamak_keys,
+    .build = tokamak_build,
 };
 
 struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, double q0, double qa)
@@ -312,37 +350,3 @@ struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, doubl
     return f;
 }
 
-/* Keys, all required: B0 (field on axis, non-zero; its sign sets the field
- * direction), R0 (major radius), a (minor radius, 0 < a < R0), q0, qa
- * (numbers > 0). */
-int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                   struct gcp_error *err)
-{
-    double B0, R0, a, q0, qa;
-    int rc;
-    *out = NULL;
-    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 1, &B0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "R0", GCP_Q_LENGTH, 1, &R0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "a", GCP_Q_LENGTH, 1, &a, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "q0", GCP_Q_NUMBER, 1, &q0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "qa", GCP_Q_NUMBER, 1, &qa, err)) < 0) return rc;
-    if (!(B0 != 0.0 && isfinite(B0)))
-        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
-                                 "must be non-zero and finite, got %g T", B0);
-    if (!(R0 > 0.0 && isfinite(R0)))
-        return gcp_section_error(sec, "R0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", R0);
-    if (!(a > 0.0 && a < R0))
-        return gcp_section_error(sec, "a", err, GCP_ERR_VALUE,
-                                 "minor radius must be in (0, R0 = %g m), got %g m", R0, a);
-    if (!(q0 > 0.0 && isfinite(q0)))
-        return gcp_section_error(sec, "q0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g", q0);
-    if (!(qa > 0.0 && isfinite(qa)))
-        return gcp_section_error(sec, "qa", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g", qa);
-    if ((rc = gcp_section_check_unused(sec, "B0 R0 a q0 qa", err)) < 0) return rc;
-    *out = gcp_field_tokamak_create(B0, R0, a, q0, qa);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "tokamak field: out of memory");
-    return 0;
-}

@@ -86,6 +86,26 @@ static int uniform_potential(const struct gcp_field *f, double t, const double x
     return 0;
 }
 
+/* Keys: B (vector, required), E (vector, optional). */
+enum { UK_B, UK_E };
+static const struct gcp_field_key uniform_keys[] = {
+    {"B", GCP_KEY_VECTOR, GCP_Q_BFIELD, 1, {0, 0, 0}, NULL, "magnetic field vector [T]"},
+    {"E", GCP_KEY_VECTOR, GCP_Q_EFIELD, 0, {0, 0, 0}, NULL, "electric field vector [V/m]"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int uniform_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    for (int i = 0; i < 3; i++) {
+        if (!isfinite(a->v[UK_B][i]))
+            return gcp_field_key_error(a, UK_B, err, GCP_ERR_VALUE, "components must be finite");
+        if (!isfinite(a->v[UK_E][i]))
+            return gcp_field_key_error(a, UK_E, err, GCP_ERR_VALUE, "components must be finite");
+    }
+    *out = gcp_field_uniform_create(a->v[UK_B], a->v[UK_E]);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "uniform field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_uniform = {
     .name = "uniform",
     .doc = "constant B (and optional E): B = 0 0 1 T, E = 0 0 0 V/m",
@@ -97,6 +117,8 @@ const struct gcp_field_type gcp_field_uniform = {
     .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A,
     .eval_soa = uniform_eval_soa,
     .potential = uniform_potential,
+    .keys = uniform_keys,
+    .build = uniform_build,
 };
 
 /* E may be NULL (no electric field). */
@@ -113,25 +135,3 @@ struct gcp_field *gcp_field_uniform_create(const double B[3], const double E[3])
     return f;
 }
 
-/* Keys: B (vector, required), E (vector, optional). */
-int gcp_field_uniform_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                   struct gcp_error *err)
-{
-    double B[3], E[3] = {0.0, 0.0, 0.0};
-    *out = NULL;
-    int rc = gcp_section_vector(sec, "B", GCP_Q_BFIELD, 1, B, err);
-    if (rc < 0) return rc;
-    rc = gcp_section_vector(sec, "E", GCP_Q_EFIELD, 0, E, err);
-    if (rc < 0) return rc;
-    for (int i = 0; i < 3; i++) {
-        if (!isfinite(B[i]))
-            return gcp_section_error(sec, "B", err, GCP_ERR_VALUE, "components must be finite");
-        if (!isfinite(E[i]))
-            return gcp_section_error(sec, "E", err, GCP_ERR_VALUE, "components must be finite");
-    }
-    rc = gcp_section_check_unused(sec, "B E", err);
-    if (rc < 0) return rc;
-    *out = gcp_field_uniform_create(B, E);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "uniform field: out of memory");
-    return 0;
-}

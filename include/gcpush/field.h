@@ -23,7 +23,6 @@ GCP_API_BEGIN
 extern "C" {
 #endif
 
-struct gcp_section; /* run-file section, see run.h */
 struct gcp_error;   /* error message buffer, see error.h */
 
 /* What a caller asks a field for (bit set in gcp_field_sample.need). */
@@ -172,11 +171,8 @@ const struct gcp_field_type *gcp_field_type_lookup(const char *name);
 /* NULL-terminated list of all built-in models (for --help). */
 const struct gcp_field_type *const *gcp_field_types(void);
 
-/* Build a field from its run-file section ([field]): each model reads its
- * own keys, marks them used, and rejects values it cannot take.  Returns 0,
- * or a negative code with err filled ("file:line: [field] key: ..."). */
-int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
-                           struct gcp_error *err);
+/* gcp_field_from_section, the run-file reader of [field], is the run
+ * layer's (run.h): each model only declares its keys and builds. */
 
 /* Direct constructors for library users (SI).  Each returns NULL only when
  * out of memory. */

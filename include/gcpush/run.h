@@ -107,6 +107,24 @@ int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, dou
  * to out.  0, or a negative code with err set (no file left on failure). */
 int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err);
 
+/* The [grid] section of a `gcpush grid FILE.run` run file:
+ *   geometry = axisymmetric | cartesian
+ *   file     = fields/data/dipole.h5           (output)
+ *   R_min, R_max, Z_min, Z_max = lengths; nR, nZ = node counts   (axisymmetric)
+ *   x_min .. z_max, nx, ny, nz                                     (cartesian)
+ *   time     = 0 s                              (optional)
+ * Fills spec and path (pathlen bytes).  0 or a negative code (err set). */
+struct gcp_grid_spec;
+int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *spec, char *path,
+                               size_t pathlen, struct gcp_error *err);
+
+/* Builds a field from its run-file section ([field]): reads the keys the
+ * model declares (gcp_field_type.keys, with their units), rejects others,
+ * and calls the model's build (src/run/field_keys.c).  Returns 0, or a
+ * negative code with err filled ("file:line: [field] key: ..."). */
+int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
+                           struct gcp_error *err);
+
 /* gcp_period_of (the gyro, bounce and drift periods) is a diagnostic:
  * invariants.h, included here. */
 

@@ -23,13 +23,10 @@ cd "$root" || exit 1
 fail=0
 say() { echo "test_layers: $*" >&2; fail=1; }
 
-# "file -> included" pairs allowed for now.  fields/ reading [field] keys
-# itself (section.h) and grid_io.c reading HDF5: issue 12 step 2.  The driver
-# filling the I/O layer's gcp_results (io.h): issue 12's "one driver" step.
+# "file -> included" pairs allowed for now: fields/grid_io.c reading and
+# writing HDF5 grid files (to move to the io layer, issue 12 step 2); the
+# driver filling the I/O layer's gcp_results (io.h: issue 12's "one driver").
 KNOWN="src/run/driver.c->gcpush/io.h
-fields/field_priv.h->gcpush/section.h
-fields/grid_priv.h->gcpush/section.h
-include/gcpush/grid.h->section.h
 fields/grid_io.c->hdf5.h"
 
 layer_of() { # path (repo-relative) -> layer number, or empty when not layered

@@ -43,6 +43,7 @@
 #include "gcpush/error.h"
 #include "gcpush/field.h"
 #include "gcpush/particles.h"
+#include "gcpush/run.h" /* gcp_field_from_section: the run layer reads [field] */
 #include "gcpush/section.h"
 
 #define TOL_FD 1e-7
