@@ -67,10 +67,26 @@ struct rhs_consts {
     double im;  /* [1/kg] 1/m */
 };
 
+/* What to do with the derivative of a stage (constant at each call):
+ * STORE it in c->k with the verdict in c->code (stage 1), or, in stages 2
+ * to 4, ACCumulate w k into c->acc, merge the verdict into the lanes'
+ * fstatus and, but for the last stage, write the NEXT stage's state
+ * y0 + cn k into c->X .. c->P (one pass instead of four). */
+enum { RHS_STORE, RHS_ACC, RHS_ACC_NEXT };
+struct rhs_fuse {
+    double w, cn;                       /* weight of this k in acc; next stage's offset [s] */
+    const double *x0, *y0, *z0, *p0;    /* the step's start state */
+    int32_t *fst;                       /* the lanes' fstatus */
+};
+
 static inline __attribute__((always_inline)) void
 rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
-          const struct rhs_consts *kc, int withE)
+          const struct rhs_consts *kc, int withE, int mode, const struct rhs_fuse *fu)
 {
+    const double w = fu ? fu->w : 0.0, cn = fu ? fu->cn : 0.0;
+    const double *restrict x0 = fu ? fu->x0 : NULL, *restrict y0 = fu ? fu->y0 : NULL;
+    const double *restrict z0 = fu ? fu->z0 : NULL, *restrict p0 = fu ? fu->p0 : NULL;
+    int32_t *restrict fst = fu ? fu->fst : NULL;
     const double iq = kc->iq, q = kc->q, imc = kc->imc, k2 = kc->k2, im = kc->im;
     for (size_t i = 0; i < m; i++) {
         const double Bx = c->B[0][i], By = c->B[1][i], Bz = c->B[2][i];
@@ -106,18 +122,36 @@ rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
         const double dY = (vpar * Bsy + (Esz * bx - Esx * bz)) * iBs;
         const double dZ = (vpar * Bsz + (Esx * by - Esy * bx)) * iBs;
         const double dp = q * (Esx * Bsx + Esy * Bsy + Esz * Bsz) * iBs;
-        c->k[0][i] = dX, c->k[1][i] = dY, c->k[2][i] = dZ, c->k[3][i] = dp;
         const int32_t nonfinite = !(fabs(dX + dY + dZ + dp) <= DBL_MAX);
         const int32_t bad = !(S > 0.0) | !(B2 > 0.0);
         const int32_t own = nonfinite * GCP_NONFINITE + (1 - nonfinite) * bad * GCP_NONADIABATIC;
         const int32_t fs = c->fs[i];
-        c->code[i] = fs + (fs == 0) * own;
+        const int32_t code = fs + (fs == 0) * own;
+        if (mode == RHS_STORE) {
+            c->k[0][i] = dX, c->k[1][i] = dY, c->k[2][i] = dZ, c->k[3][i] = dp;
+            c->code[i] = code;
+        } else {
+            c->acc[0][i] = c->acc[0][i] + w * dX;
+            c->acc[1][i] = c->acc[1][i] + w * dY;
+            c->acc[2][i] = c->acc[2][i] + w * dZ;
+            c->acc[3][i] = c->acc[3][i] + w * dp;
+            const int32_t s0 = fst[i];
+            fst[i] = s0 + (s0 == 0) * code;
+            if (mode == RHS_ACC_NEXT) {
+                c->X[i] = x0[i] + cn * dX;
+                c->Y[i] = y0[i] + cn * dY;
+                c->Z[i] = z0[i] + cn * dZ;
+                c->P[i] = p0[i] + cn * dp;
+            }
+        }
     }
 }
 
-/* Field and right-hand side at the chunk's stage state (time t). */
+/* Field and right-hand side at the chunk's stage state (time t); mode and
+ * fu as in rhs_chunk, each combination with E or without its own loop. */
 static void stage_eval(struct rk4_chunk *c, size_t m, const struct gcp_field *f, double t,
-                       unsigned need, const double *mu, const struct rhs_consts *kc)
+                       unsigned need, const double *mu, const struct rhs_consts *kc, int mode,
+                       const struct rhs_fuse *fu)
 {
     const struct gcp_field_soa o = {{c->B[0], c->B[1], c->B[2]},
                                     {{c->G[0][0], c->G[0][1], c->G[0][2]},
@@ -126,10 +160,17 @@ static void stage_eval(struct rk4_chunk *c, size_t m, const struct gcp_field *f,
                                     {c->E[0], c->E[1], c->E[2]}};
     memset(c->fs, 0, m * sizeof(int32_t));
     gcp_field_eval_soa(f, t, need, m, c->X, c->Y, c->Z, &o, c->fs);
-    if (need & GCP_NEED_E)
-        rhs_chunk(c, m, mu, kc, 1);
-    else
-        rhs_chunk(c, m, mu, kc, 0);
+    const int E = (need & GCP_NEED_E) != 0;
+    if (mode == RHS_STORE) {
+        if (E) rhs_chunk(c, m, mu, kc, 1, RHS_STORE, NULL);
+        else rhs_chunk(c, m, mu, kc, 0, RHS_STORE, NULL);
+    } else if (mode == RHS_ACC) {
+        if (E) rhs_chunk(c, m, mu, kc, 1, RHS_ACC, fu);
+        else rhs_chunk(c, m, mu, kc, 0, RHS_ACC, fu);
+    } else {
+        if (E) rhs_chunk(c, m, mu, kc, 1, RHS_ACC_NEXT, fu);
+        else rhs_chunk(c, m, mu, kc, 0, RHS_ACC_NEXT, fu);
+    }
 }
 
 /* The adiabaticity test of stage 1 (only when amax > 0): lanes that pass
@@ -163,7 +204,7 @@ static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double
         memcpy(c->Y, b->y + i0, m * sizeof(double));
         memcpy(c->Z, b->z + i0, m * sizeof(double));
         memcpy(c->P, b->ppar + i0, m * sizeof(double));
-        stage_eval(c, m, f, t, need, b->mu + i0, kc);
+        stage_eval(c, m, f, t, need, b->mu + i0, kc, RHS_STORE, NULL);
         if (amax > 0.0) adiabaticity_chunk(c, m, b->mu + i0, b->q, b->m, amax);
         for (int d = 0; d < 4; d++) memcpy(k1 + d * N + i0, c->k[d], m * sizeof(double));
         for (size_t i = 0; i < m; i++) {
@@ -182,30 +223,26 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
     const size_t N = b->n;
     const double *restrict x = b->x + i0, *restrict y = b->y + i0, *restrict z = b->z + i0;
     const double *restrict p = b->ppar + i0, *restrict mu = b->mu + i0;
-    int32_t *restrict fst = b->fstatus + i0;
-    for (int d = 0; d < 4; d++) {
-        const double *restrict kd = k1 + d * N + i0;
-        for (size_t i = 0; i < m; i++) c->k[d][i] = kd[i];
-        for (size_t i = 0; i < m; i++) c->acc[d][i] = 0.0 + 1.0 * kd[i];
+    const double *restrict k1x = k1 + i0, *restrict k1y = k1 + N + i0;
+    const double *restrict k1z = k1 + 2 * N + i0, *restrict k1p = k1 + 3 * N + i0;
+    const double c2 = 0.5 * h; /* k2's offset */
+    for (size_t i = 0; i < m; i++) {
+        c->acc[0][i] = 0.0 + 1.0 * k1x[i];
+        c->acc[1][i] = 0.0 + 1.0 * k1y[i];
+        c->acc[2][i] = 0.0 + 1.0 * k1z[i];
+        c->acc[3][i] = 0.0 + 1.0 * k1p[i];
+        c->X[i] = x[i] + c2 * k1x[i];
+        c->Y[i] = y[i] + c2 * k1y[i];
+        c->Z[i] = z[i] + c2 * k1z[i];
+        c->P[i] = p[i] + c2 * k1p[i];
     }
-    static const double cs[3] = {0.5, 0.5, 1.0}; /* stage offsets of k2, k3, k4 */
-    static const double ws[3] = {2.0, 2.0, 1.0}; /* their weights */
-    for (int st = 0; st < 3; st++) {
-        const double cc = cs[st] * h, w = ws[st];
-        for (size_t i = 0; i < m; i++) {
-            c->X[i] = x[i] + cc * c->k[0][i];
-            c->Y[i] = y[i] + cc * c->k[1][i];
-            c->Z[i] = z[i] + cc * c->k[2][i];
-            c->P[i] = p[i] + cc * c->k[3][i];
-        }
-        stage_eval(c, m, f, t + cc, need, mu, kc);
-        for (size_t i = 0; i < m; i++) {
-            const int32_t s0 = fst[i];
-            fst[i] = s0 + (s0 == 0) * c->code[i];
-        }
-        for (int d = 0; d < 4; d++)
-            for (size_t i = 0; i < m; i++) c->acc[d][i] = c->acc[d][i] + w * c->k[d][i];
-    }
+    /* k2 at t + h/2 (weight 2, next offset h/2), k3 at t + h/2 (2, h), k4 at t + h (1) */
+    struct rhs_fuse fu = {2.0, 0.5 * h, x, y, z, p, b->fstatus + i0};
+    stage_eval(c, m, f, t + 0.5 * h, need, mu, kc, RHS_ACC_NEXT, &fu);
+    fu.cn = 1.0 * h;
+    stage_eval(c, m, f, t + 0.5 * h, need, mu, kc, RHS_ACC_NEXT, &fu);
+    fu.w = 1.0;
+    stage_eval(c, m, f, t + 1.0 * h, need, mu, kc, RHS_ACC, &fu);
     const double h6 = h / 6.0;
     double *restrict xo = b->x + i0, *restrict yo = b->y + i0, *restrict zo = b->z + i0;
     double *restrict po = b->ppar + i0;
