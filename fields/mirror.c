@@ -90,39 +90,46 @@ static void mirror_eval_block(const struct gcp_field *f, double t, size_t n, con
     if (Ex) zero3(n, Ex, Ey, Ez);
 }
 
-/* One point of the block evaluation (flags constant in each loop below);
- * grad B as in mirror_eval (bit-identical). */
+/* The block evaluation; grad B as in mirror_eval (bit-identical).  Every
+ * array a restrict parameter (distinct scratch arrays), so the loop
+ * vectorises without alias checks; wantG is a constant at each call. */
 static inline __attribute__((always_inline)) void
-mirror_soa_point(const struct mirror_params *p, int wantG, size_t i, const double *restrict xa,
-                 const double *restrict ya, const double *restrict za,
-                 const struct gcp_field_soa *o)
+mirror_soa_loop(const struct mirror_params *p, int wantG, size_t n, const double *restrict xa,
+                const double *restrict ya, const double *restrict za, double *restrict Bx,
+                double *restrict By, double *restrict Bz, double *restrict G00,
+                double *restrict G01, double *restrict G02, double *restrict G10,
+                double *restrict G11, double *restrict G12, double *restrict G20,
+                double *restrict G21, double *restrict G22)
 {
-    const double x = xa[i], y = ya[i], z = za[i];
-    double bx, by, bz;
-    mirror_B(p, x, y, z, &bx, &by, &bz);
-    o->B[0][i] = bx, o->B[1][i] = by, o->B[2][i] = bz;
-    if (wantG) {
-        const double k = p->k, kx = k * x, ky = k * y, kz = k * z;
-        o->G[0][0][i] = -kz, o->G[0][1][i] = 0.0, o->G[0][2][i] = -kx;
-        o->G[1][0][i] = 0.0, o->G[1][1][i] = -kz, o->G[1][2][i] = -ky;
-        o->G[2][0][i] = -kx, o->G[2][1][i] = -ky, o->G[2][2][i] = 2.0 * kz;
+    for (size_t i = 0; i < n; i++) {
+        const double x = xa[i], y = ya[i], z = za[i];
+        double bx, by, bz;
+        mirror_B(p, x, y, z, &bx, &by, &bz);
+        Bx[i] = bx, By[i] = by, Bz[i] = bz;
+        if (wantG) {
+            const double k = p->k, kx = k * x, ky = k * y, kz = k * z;
+            G00[i] = -kz, G01[i] = 0.0, G02[i] = -kx;
+            G10[i] = 0.0, G11[i] = -kz, G12[i] = -ky;
+            G20[i] = -kx, G21[i] = -ky, G22[i] = 2.0 * kz;
+        }
     }
 }
 
 static void mirror_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
-                            const double *restrict x, const double *restrict y,
-                            const double *restrict z, const struct gcp_field_soa *out,
-                            int32_t *status)
+                            const double *x, const double *y, const double *z,
+                            const struct gcp_field_soa *o, int32_t *status)
 {
     (void)t;
     (void)status; /* z_max and r_outer are the scene's */
     const struct mirror_params q = *(const struct mirror_params *)f->params;
-    const struct gcp_field_soa o = *out;
     if (need & GCP_NEED_GRADB)
-        for (size_t i = 0; i < n; i++) mirror_soa_point(&q, 1, i, x, y, z, &o);
+        mirror_soa_loop(&q, 1, n, x, y, z, o->B[0], o->B[1], o->B[2], o->G[0][0], o->G[0][1],
+                        o->G[0][2], o->G[1][0], o->G[1][1], o->G[1][2], o->G[2][0], o->G[2][1],
+                        o->G[2][2]);
     else
-        for (size_t i = 0; i < n; i++) mirror_soa_point(&q, 0, i, x, y, z, &o);
-    if (need & GCP_NEED_E) zero3(n, o.E[0], o.E[1], o.E[2]);
+        mirror_soa_loop(&q, 0, n, x, y, z, o->B[0], o->B[1], o->B[2], NULL, NULL, NULL, NULL,
+                        NULL, NULL, NULL, NULL, NULL);
+    if (need & GCP_NEED_E) zero3(n, o->E[0], o->E[1], o->E[2]);
 }
 
 /* Bz = B0 + k (z^2 - R^2/2), B_R = -k R z, k = B0/Lm^2, from

@@ -176,64 +176,68 @@ static void tokamak_eval_block(const struct gcp_field *f, double t, size_t n, co
     if (Ex) zero3(n, Ex, Ey, Ez);
 }
 
-/* One point of the block evaluation; grad B as in tokamak_eval, operation
- * for operation (bit-identical).  Returns r^2 for the domain test. */
-static inline __attribute__((always_inline)) double
-tok_soa_point(const struct tokamak_params *p, int wantG, size_t i, const double *restrict xa,
-              const double *restrict ya, const double *restrict za, const struct gcp_field_soa *o)
+/* The block evaluation; grad B as in tokamak_eval, operation for operation
+ * (bit-identical), and the domain test as in tok_block.  Every array a
+ * restrict parameter (distinct scratch arrays), so the loop vectorises
+ * without alias checks; wantG and wantS are constants at each call. */
+static inline __attribute__((always_inline)) void
+tok_soa_loop(const struct tokamak_params *p, int wantG, int wantS, size_t n,
+             const double *restrict xa, const double *restrict ya, const double *restrict za,
+             double *restrict Bx, double *restrict By, double *restrict Bz, double *restrict G00,
+             double *restrict G01, double *restrict G02, double *restrict G10,
+             double *restrict G11, double *restrict G12, double *restrict G20,
+             double *restrict G21, double *restrict G22, int32_t *restrict st)
 {
-    const double x = xa[i], y = ya[i], z = za[i];
-    double bx, by, bz;
-    const double r2 = tok_B(p, x, y, z, &bx, &by, &bz);
-    o->B[0][i] = bx, o->B[1][i] = by, o->B[2][i] = bz;
-    if (wantG) {
-        double R2 = x * x + y * y;
-        R2 = R2 > p->R2min ? R2 : p->R2min;
-        const double R = sqrt(R2), u = 1.0 / R2, w = (R - p->R0) / R;
-        double q = p->q0 + p->dq * r2;
-        q = q > p->qmin ? q : p->qmin;
-        const double F = p->B0 / q, G = F * z, Fp = -F * p->dq / q;
-        const double dFx = 2.0 * Fp * w * x, dFy = 2.0 * Fp * w * y, dFz = 2.0 * Fp * z;
-        const double dGx = z * dFx, dGy = z * dFy, dGz = z * dFz + F;
-        const double P = G * x + p->B0R0 * y, Q = p->B0R0 * x - G * y;
-        const double u2 = u * u, FR0R3 = F * p->R0 * u / R;
-        o->G[0][0][i] = -(x * dGx + G) * u + 2.0 * x * P * u2;
-        o->G[0][1][i] = -(x * dGy + p->B0R0) * u + 2.0 * y * P * u2;
-        o->G[0][2][i] = -x * dGz * u;
-        o->G[1][0][i] = (p->B0R0 - y * dGx) * u - 2.0 * x * Q * u2;
-        o->G[1][1][i] = -(y * dGy + G) * u - 2.0 * y * Q * u2;
-        o->G[1][2][i] = -y * dGz * u;
-        o->G[2][0][i] = dFx * w + FR0R3 * x;
-        o->G[2][1][i] = dFy * w + FR0R3 * y;
-        o->G[2][2][i] = dFz * w;
+    for (size_t i = 0; i < n; i++) {
+        const double x = xa[i], y = ya[i], z = za[i];
+        double bx, by, bz;
+        const double r2 = tok_B(p, x, y, z, &bx, &by, &bz);
+        Bx[i] = bx, By[i] = by, Bz[i] = bz;
+        if (wantG) {
+            double R2 = x * x + y * y;
+            R2 = R2 > p->R2min ? R2 : p->R2min;
+            const double R = sqrt(R2), u = 1.0 / R2, w = (R - p->R0) / R;
+            double q = p->q0 + p->dq * r2;
+            q = q > p->qmin ? q : p->qmin;
+            const double F = p->B0 / q, G = F * z, Fp = -F * p->dq / q;
+            const double dFx = 2.0 * Fp * w * x, dFy = 2.0 * Fp * w * y, dFz = 2.0 * Fp * z;
+            const double dGx = z * dFx, dGy = z * dFy, dGz = z * dFz + F;
+            const double P = G * x + p->B0R0 * y, Q = p->B0R0 * x - G * y;
+            const double u2 = u * u, FR0R3 = F * p->R0 * u / R;
+            G00[i] = -(x * dGx + G) * u + 2.0 * x * P * u2;
+            G01[i] = -(x * dGy + p->B0R0) * u + 2.0 * y * P * u2;
+            G02[i] = -x * dGz * u;
+            G10[i] = (p->B0R0 - y * dGx) * u - 2.0 * x * Q * u2;
+            G11[i] = -(y * dGy + G) * u - 2.0 * y * Q * u2;
+            G12[i] = -y * dGz * u;
+            G20[i] = dFx * w + FR0R3 * x;
+            G21[i] = dFy * w + FR0R3 * y;
+            G22[i] = dFz * w;
+        }
+        if (wantS) {
+            const int32_t s0 = st[i];
+            st[i] = s0 + (int32_t)(s0 == 0) * (int32_t)(r2 > p->a2) * GCP_LEFT_DOMAIN;
+        }
     }
-    return r2;
 }
 
-#define TOK_SOA_LOOP(G)                                                                        \
-    do {                                                                                       \
-        if (st)                                                                                \
-            for (size_t i = 0; i < n; i++) {                                                   \
-                const double r2 = tok_soa_point(&p, G, i, x, y, z, &o);                        \
-                const int32_t s0 = st[i];                                                      \
-                st[i] = s0 + (int32_t)(s0 == 0) * (int32_t)(r2 > p.a2) * GCP_LEFT_DOMAIN;      \
-            }                                                                                  \
-        else                                                                                   \
-            for (size_t i = 0; i < n; i++) tok_soa_point(&p, G, i, x, y, z, &o);               \
-    } while (0)
+#define TOK_SOA_LOOP(WG, WS)                                                                    \
+    tok_soa_loop(&p, WG, WS, n, x, y, z, o->B[0], o->B[1], o->B[2], o->G[0][0], o->G[0][1],      \
+                 o->G[0][2], o->G[1][0], o->G[1][1], o->G[1][2], o->G[2][0], o->G[2][1],         \
+                 o->G[2][2], status)
 
 static void tokamak_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
-                             const double *restrict x, const double *restrict y,
-                             const double *restrict z, const struct gcp_field_soa *out,
-                             int32_t *status)
+                             const double *x, const double *y, const double *z,
+                             const struct gcp_field_soa *o, int32_t *status)
 {
     (void)t;
     const struct tokamak_params p = *(const struct tokamak_params *)f->params;
-    const struct gcp_field_soa o = *out;
-    int32_t *restrict st = status;
-    if (need & GCP_NEED_GRADB) TOK_SOA_LOOP(1);
-    else TOK_SOA_LOOP(0);
-    if (need & GCP_NEED_E) zero3(n, o.E[0], o.E[1], o.E[2]);
+    const int G = (need & GCP_NEED_GRADB) != 0, S = status != NULL;
+    if (G && S) TOK_SOA_LOOP(1, 1);
+    else if (G) TOK_SOA_LOOP(1, 0);
+    else if (S) TOK_SOA_LOOP(0, 1);
+    else TOK_SOA_LOOP(0, 0);
+    if (need & GCP_NEED_E) zero3(n, o->E[0], o->E[1], o->E[2]);
 }
 #undef TOK_SOA_LOOP
 
