@@ -30,7 +30,9 @@ PKGS     := hdf5-openmpi gsl inih
 CSTD     := -std=c11 -D_POSIX_C_SOURCE=200809L -fno-math-errno
 WARN     := -Wall -Wextra -Werror
 CPPFLAGS += -Iinclude -Isrc -Ifields
-CFLAGS   := $(CSTD) $(WARN) $(OPTFLAGS) -fPIC $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
+# -fvisibility=hidden: libgcpush.so exports only what the public headers
+# declare (include/gcpush/api.h); tests/cli/test_layers.sh checks it.
+CFLAGS   := $(CSTD) $(WARN) $(OPTFLAGS) -fPIC -fvisibility=hidden $(shell pkg-config --cflags $(PKGS) 2>/dev/null)
 LDLIBS   := $(shell pkg-config --libs $(PKGS) 2>/dev/null) -lm
 GIT_HASH := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
 CPPFLAGS += -DGCP_VERSION='"$(VERSION)"' -DGCP_GIT_HASH='"$(GIT_HASH)"' \
@@ -46,7 +48,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 # only (no MPI, no HDF5), compiled by clang into one binary.
 FUZZ_SECONDS ?= 600
 FUZZER   := build-fuzz/fuzz_runfile
-FUZZ_SRC := src/error.c src/units.c src/particles.c src/run/section.c src/run/runfile.c \
+FUZZ_SRC := src/error.c src/units.c src/particles.c src/run/section.c src/run/runfile.c src/run/field_keys.c \
             src/run/scene.c src/run/scene_hybrid.c $(wildcard src/pushers/hybrid*.c) src/run/sweep.c src/run/sweep_exact.c src/diag/periods.c src/diag/invariants.c \
             src/pushers/block.c src/pushers/fo_step.c src/pushers/fo_rk8pd.c \
             $(wildcard src/pushers/boris*.c src/pushers/vay.c src/pushers/higuera_cary.c) \

@@ -145,12 +145,159 @@ static void dipole_eval_block(const struct gcp_field *f, double t, size_t n, con
     }
 }
 
+/* The block evaluation: B, and grad B and E as asked (the flags are
+ * constants in each call below, so each loop is specialised and
+ * branch-free).  Every array a restrict parameter: the outputs are distinct
+ * scratch arrays, which lets the loops vectorise without alias checks.
+ * grad B written out component by component from the loop in dipole_eval,
+ * operation for operation (bit-identical results):
+ *   G_ij = a (-zf x_i x_j [+ z if i = j] [+ x_i if j = z] [+ x_j if i = z]). */
+static inline __attribute__((always_inline)) void
+dipole_soa_loop(double c, double omega, int wantG, int wantE, size_t n,
+                const double *restrict xa, const double *restrict ya, const double *restrict za,
+                double *restrict Bx, double *restrict By, double *restrict Bz,
+                double *restrict G00, double *restrict G01, double *restrict G02,
+                double *restrict G10, double *restrict G11, double *restrict G12,
+                double *restrict G20, double *restrict G21, double *restrict G22,
+                double *restrict Ex, double *restrict Ey, double *restrict Ez)
+{
+    for (size_t i = 0; i < n; i++) {
+        const double x = xa[i], y = ya[i], z = za[i];
+        double bx, by, bz;
+        dipole_B(c, x, y, z, &bx, &by, &bz);
+        Bx[i] = bx, By[i] = by, Bz[i] = bz;
+        if (wantG) {
+            const double r2 = dipole_r2(x, y, z), c5 = dipole_c5(c, r2);
+            const double a = -3.0 * c5, zf = 5.0 * z / r2;
+            const double px = -zf * x, py = -zf * y, pz = -zf * z;
+            G00[i] = a * (px * x + z);
+            G01[i] = a * (px * y);
+            G02[i] = a * (px * z + x);
+            G10[i] = a * (py * x);
+            G11[i] = a * (py * y + z);
+            G12[i] = a * (py * z + y);
+            G20[i] = a * (pz * x + x);
+            G21[i] = a * (pz * y + y);
+            G22[i] = a * (((pz * z + z) + z) + z);
+        }
+        if (wantE) {
+            double ex, ey, ez;
+            dipole_E(omega, x, y, bx, by, bz, &ex, &ey, &ez);
+            Ex[i] = ex, Ey[i] = ey, Ez[i] = ez;
+        }
+    }
+}
+
+#define DIPOLE_SOA_LOOP(WG, WE)                                                                 \
+    dipole_soa_loop(c, omega, WG, WE, n, x, y, z, o->B[0], o->B[1], o->B[2], o->G[0][0],         \
+                    o->G[0][1], o->G[0][2], o->G[1][0], o->G[1][1], o->G[1][2], o->G[2][0],     \
+                    o->G[2][1], o->G[2][2], o->E[0], o->E[1], o->E[2])
+
+static void dipole_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                            const double *x, const double *y, const double *z,
+                            const struct gcp_field_soa *o, int32_t *status)
+{
+    (void)t;
+    (void)status; /* defined everywhere; r_inner and r_outer are the scene's */
+    const struct dipole_params *p = f->params;
+    const double c = p->c, omega = p->omega;
+    const int G = (need & GCP_NEED_GRADB) != 0, E = (need & GCP_NEED_E) && f->has_E;
+    if (G && E) DIPOLE_SOA_LOOP(1, 1);
+    else if (G) DIPOLE_SOA_LOOP(1, 0);
+    else if (E) DIPOLE_SOA_LOOP(0, 1);
+    else DIPOLE_SOA_LOOP(0, 0);
+    if ((need & GCP_NEED_E) && !f->has_E) zero3(n, o->E[0], o->E[1], o->E[2]);
+}
+#undef DIPOLE_SOA_LOOP
+
+/* A = A_phi phihat, A_phi = -c R / r^3 (header comment), written
+ * A = a (-y, x, 0) with a = -c / r^3, da/dx_j = 3 c x_j / r^5.
+ * Corotation E = -(Omega x r) x B = -grad(Omega R A_phi): phi = Omega R A_phi. */
+static int dipole_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                            double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct dipole_params *p = f->params;
+    double r2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+    r2 = r2 > DIPOLE_R2_MIN ? r2 : DIPOLE_R2_MIN; /* the floor of dipole_r2 */
+    const double r = sqrt(r2), ir3 = 1.0 / (r2 * r);
+    const double a = -p->c * ir3;
+    const double f5 = 3.0 * p->c * ir3 / r2;
+    const double da[3] = {f5 * x[0], f5 * x[1], f5 * x[2]};
+    gcp_field_axial_potential(x, a, da, A, dA);
+    if (phi) *phi = p->omega * (x[0] * A[1] - x[1] * A[0]); /* Omega R A_phi */
+    return 0;
+}
+
+/* psi = R A_phi = -c R^2 / r^3: constant on a field line (R^2/r^3 = 1/(L R_E)). */
+static int dipole_psi(const struct gcp_field *f, const double x[3], double *psi)
+{
+    double A[3];
+    dipole_potential(f, 0.0, x, A, NULL, NULL);
+    *psi = x[0] * A[1] - x[1] * A[0];
+    return 0;
+}
+
+/* |B| at (R_E, 0, 0) evaluated, not c / R_E^3 read back: the number the
+ * invariant observer has always used for L (bit-identical results). */
+static double dipole_B0(const struct gcp_field *f)
+{
+    const struct dipole_params *p = f->params;
+    double bx, by, bz;
+    dipole_B(p->c, GCP_EARTH_RADIUS, 0.0, 0.0, &bx, &by, &bz);
+    return sqrt(bx * bx + by * by + bz * bz);
+}
+
+/* Keys, all optional:
+ *   B0         equatorial surface field, default GCP_EARTH_B0 = 3.12e-5 T
+ *   corotation yes/no, default no (adds E = -(Omega x r) x B)
+ *   atmosphere altitude of the loss boundary, default 100 km:
+ *              r_inner = R_E + atmosphere, below it a particle PRECIPITATES
+ *   r_outer    default 15 RE, beyond it a particle has LEFT_DOMAIN */
+enum { DK_B0, DK_COROT, DK_ATM, DK_ROUT };
+static const struct gcp_field_key dipole_keys[] = {
+    {"B0", GCP_KEY_QUANTITY, GCP_Q_BFIELD, 0, {GCP_EARTH_B0, 0, 0}, NULL,
+     "equatorial surface field [T]"},
+    {"corotation", GCP_KEY_FLAG, 0, 0, {0, 0, 0}, NULL, "add the corotation E field"},
+    {"atmosphere", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {100e3, 0, 0}, NULL,
+     "altitude of the loss boundary [m]"},
+    {"r_outer", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {15.0 * GCP_EARTH_RADIUS, 0, 0}, NULL,
+     "outer boundary [m]"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int dipole_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const double B0 = a->v[DK_B0][0], alt = a->v[DK_ATM][0], r_outer = a->v[DK_ROUT][0];
+    if (!(B0 > 0.0 && isfinite(B0)))
+        return gcp_field_key_error(a, DK_B0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g T", B0);
+    if (!(alt >= 0.0 && isfinite(alt)))
+        return gcp_field_key_error(a, DK_ATM, err, GCP_ERR_VALUE,
+                                   "altitude must be >= 0 and finite, got %g m", alt);
+    const double r_inner = GCP_EARTH_RADIUS + alt;
+    if (!(r_outer > r_inner && isfinite(r_outer)))
+        return gcp_field_key_error(a, DK_ROUT, err, GCP_ERR_VALUE,
+                                   "must be finite and above the atmosphere (%g m), got %g m",
+                                   r_inner, r_outer);
+    *out = gcp_field_dipole_create(B0, a->v[DK_COROT][0] != 0.0, r_inner, r_outer);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "dipole field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_dipole = {
     .name = "dipole",
     .doc = "Earth's centred dipole, moment along -z: [B0] [corotation] [atmosphere] [r_outer]",
     .eval = dipole_eval,
     .eval_block = dipole_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A | GCP_CAP_PSI | GCP_CAP_AXISYM |
+            GCP_CAP_DIPOLE_L,
+    .eval_soa = dipole_eval_soa,
+    .potential = dipole_potential,
+    .psi = dipole_psi,
+    .dipole_B0 = dipole_B0,
+    .keys = dipole_keys,
+    .build = dipole_build,
 };
 
 /* r_inner <= 0: no precipitation boundary; r_outer <= 0 or inf: no outer one. */
@@ -167,41 +314,6 @@ struct gcp_field *gcp_field_dipole_create(double B0, int corotation, double r_in
     f->r_inner = r_inner > 0.0 ? r_inner : 0.0;
     f->r_outer = r_outer > 0.0 ? r_outer : INFINITY;
     return f;
-}
-
-/* Keys, all optional:
- *   B0         equatorial surface field, default GCP_EARTH_B0 = 3.12e-5 T
- *   corotation yes/no, default no (adds E = -(Omega x r) x B)
- *   atmosphere altitude of the loss boundary, default 100 km:
- *              r_inner = R_E + atmosphere, below it a particle PRECIPITATES
- *   r_outer    default 15 RE, beyond it a particle has LEFT_DOMAIN */
-int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                  struct gcp_error *err)
-{
-    double B0 = GCP_EARTH_B0, alt = 100e3, r_outer = 15.0 * GCP_EARTH_RADIUS;
-    int corot = 0, rc;
-    *out = NULL;
-    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 0, &B0, err)) < 0) return rc;
-    if ((rc = gcp_section_flag(sec, "corotation", 0, &corot, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "atmosphere", GCP_Q_LENGTH, 0, &alt, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "r_outer", GCP_Q_LENGTH, 0, &r_outer, err)) < 0)
-        return rc;
-    if (!(B0 > 0.0 && isfinite(B0)))
-        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g T", B0);
-    if (!(alt >= 0.0 && isfinite(alt)))
-        return gcp_section_error(sec, "atmosphere", err, GCP_ERR_VALUE,
-                                 "altitude must be >= 0 and finite, got %g m", alt);
-    const double r_inner = GCP_EARTH_RADIUS + alt;
-    if (!(r_outer > r_inner && isfinite(r_outer)))
-        return gcp_section_error(sec, "r_outer", err, GCP_ERR_VALUE,
-                                 "must be finite and above the atmosphere (%g m), got %g m",
-                                 r_inner, r_outer);
-    if ((rc = gcp_section_check_unused(sec, "B0 corotation atmosphere r_outer", err)) < 0)
-        return rc;
-    *out = gcp_field_dipole_create(B0, corot, r_inner, r_outer);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "dipole field: out of memory");
-    return 0;
 }
 
 /* Flux function and magnetic scalar potential (fields/potential.c):

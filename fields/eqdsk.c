@@ -405,12 +405,43 @@ static void eqdsk_eval_block(const struct gcp_field *f, double t, size_t n, cons
     }
 }
 
+/* Keys: file (required), cocos = 1..8 (optional; default: identified from
+ * the signs, see the top of this file). */
+enum { EK_FILE, EK_COCOS };
+static const struct gcp_field_key eqdsk_keys[] = {
+    {"file", GCP_KEY_STRING, 0, 1, {0, 0, 0}, NULL, "G-EQDSK file"},
+    {"cocos", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 0, {0, 0, 0}, NULL,
+     "COCOS of the file, 1..8 (default: from the signs)"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int eqdsk_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const double cocos = a->v[EK_COCOS][0];
+    if (!(cocos == floor(cocos) && cocos >= 0 && cocos <= 8))
+        return gcp_field_key_error(a, EK_COCOS, err, GCP_ERR_VALUE,
+                                   "expected an integer 1..8 (COCOS of psi in Wb/rad), got %g",
+                                   cocos);
+    struct gcp_error e2 = {0, ""};
+    const int rc = gcp_field_eqdsk_load(a->text[EK_FILE], (int)cocos, out, &e2);
+    if (rc) return gcp_field_key_error(a, EK_FILE, err, rc, "%s", e2.msg);
+    return 0;
+}
+
+static int eqdsk_psi(const struct gcp_field *f, const double x[3], double *psi)
+{
+    return gcp_eqdsk_psi_RZ(f, hypot(x[0], x[1]), x[2], psi);
+}
+
 const struct gcp_field_type gcp_field_eqdsk = {
     .name = "eqdsk",
     .doc = "tokamak equilibrium from a G-EQDSK file (psi bicubic, F(psi) spline): file, [cocos]",
     .eval = eqdsk_eval,
     .eval_block = eqdsk_eval_block,
     .destroy = eqdsk_destroy,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_PSI | GCP_CAP_AXISYM,
+    .psi = eqdsk_psi,
+    .keys = eqdsk_keys,
+    .build = eqdsk_build,
 };
 
 int gcp_eqdsk_psi_RZ(const struct gcp_field *f, double R, double Z, double *psi)
@@ -441,27 +472,6 @@ static double eqdsk_profile(const struct gcp_field *f, int c, double psiN)
 
 double gcp_field_eqdsk_q(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 1, psiN); }
 double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 0, psiN); }
-
-/* Keys: file (required), cocos = 1..8 (optional; default: identified from
- * the signs, see the top of this file). */
-int gcp_field_eqdsk_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                 struct gcp_error *err)
-{
-    char file[1024];
-    double cocos = 0.0;
-    int rc;
-    *out = NULL;
-    if ((rc = gcp_section_string(sec, "file", 1, file, sizeof file, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "cocos", GCP_Q_NUMBER, 0, &cocos, err)) < 0) return rc;
-    if (!(cocos == floor(cocos) && cocos >= 0 && cocos <= 8))
-        return gcp_section_error(sec, "cocos", err, GCP_ERR_VALUE,
-                                 "expected an integer 1..8 (COCOS of psi in Wb/rad), got %g", cocos);
-    if ((rc = gcp_section_check_unused(sec, "file cocos", err)) < 0) return rc;
-    struct gcp_error e2 = {0, ""};
-    rc = gcp_field_eqdsk_load(file, (int)cocos, out, &e2);
-    if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
-    return 0;
-}
 
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
  * (fields/flux_priv.h), from the same bicubic spline as eval. */

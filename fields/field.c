@@ -6,6 +6,8 @@
  * adding a model is one line in `models` below.
  */
 #include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -13,28 +15,28 @@
 #include "gcpush/particles.h"
 #include "grid_priv.h"
 
-/* Models a run file may name, with their readers.  The callback model is
- * absent on purpose: a function pointer cannot come from a run file. */
-static const struct {
-    const struct gcp_field_type *type;
-    int (*from_section)(struct gcp_section *, struct gcp_field **, struct gcp_error *);
-} models[] = {
-    {&gcp_field_uniform, gcp_field_uniform_from_section},
-    {&gcp_field_mirror, gcp_field_mirror_from_section},
-    {&gcp_field_dipole, gcp_field_dipole_from_section},
-    {&gcp_field_tokamak, gcp_field_tokamak_from_section},
-    {&gcp_field_grid, gcp_field_grid_from_section}, {&gcp_field_eqdsk, gcp_field_eqdsk_from_section},
-    {&gcp_field_igrf, gcp_field_igrf_from_section},
-};
-#define N_MODELS (sizeof models / sizeof models[0])
+/* The one list of models a run file may name: the lookup, the type list
+ * (--help) and the names in messages all come from it, so adding a model is
+ * one entry here.  The callback model is absent on purpose: a function
+ * pointer cannot come from a run file. */
+#define GCP_FIELD_MODELS(X) X(uniform) X(mirror) X(dipole) X(tokamak) X(grid) X(eqdsk) X(igrf)
 
-/* Kept in step with `models` (a static initialiser cannot read models[i].type). */
-static const struct gcp_field_type *const type_list[N_MODELS + 1] = {
-    &gcp_field_uniform, &gcp_field_mirror, &gcp_field_dipole, &gcp_field_tokamak,
-    &gcp_field_grid, &gcp_field_eqdsk, &gcp_field_igrf, NULL};
+#define GCP_MODEL_TYPE_(n) &gcp_field_##n,
+static const struct gcp_field_type *const type_list[] = {GCP_FIELD_MODELS(GCP_MODEL_TYPE_) NULL};
+#define N_MODELS (sizeof type_list / sizeof type_list[0] - 1)
 
-/* For messages: the names in `models`, space separated. */
-#define MODEL_NAMES "uniform mirror dipole tokamak grid eqdsk igrf"
+const char *gcp_field_model_names(char *buf, size_t size)
+{
+    size_t used = 0;
+    if (!buf || size == 0) return "";
+    buf[0] = '\0';
+    for (size_t i = 0; i < N_MODELS && used < size; i++) {
+        const int w = snprintf(buf + used, size - used, "%s%s", i ? " " : "", type_list[i]->name);
+        if (w < 0) break;
+        used += (size_t)w;
+    }
+    return buf;
+}
 
 const struct gcp_field_type *const *gcp_field_types(void) { return type_list; }
 
@@ -42,7 +44,7 @@ const struct gcp_field_type *gcp_field_type_lookup(const char *name)
 {
     if (!name) return NULL;
     for (size_t i = 0; i < N_MODELS; i++)
-        if (strcmp(models[i].type->name, name) == 0) return models[i].type;
+        if (strcmp(type_list[i]->name, name) == 0) return type_list[i];
     return NULL;
 }
 
@@ -64,32 +66,6 @@ struct gcp_field *gcp_field_alloc(const struct gcp_field_type *type, size_t para
     return f;
 }
 
-int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
-                           struct gcp_error *err)
-{
-    if (!out) return gcp_error_set(err, GCP_ERR_STATE, "gcp_field_from_section: out is NULL");
-    *out = NULL;
-    if (!sec) return gcp_error_set(err, GCP_ERR_STATE, "gcp_field_from_section: no [field] section");
-    for (size_t i = 0; model && i < N_MODELS; i++)
-        if (strcmp(models[i].type->name, model) == 0) {
-            int rc = models[i].from_section(sec, out, err);
-            if (rc < 0) {
-                /* The readers build the field last, so there is nothing to
-                 * free; this only guards a reader that forgets *out = NULL. */
-                gcp_field_free(*out);
-                *out = NULL;
-            }
-            return rc < 0 ? rc : 0;
-        }
-    /* The model name comes from [scene] field = ..., whose line the caller
-     * knows; name the [field] section here so the user can find the run. */
-    return gcp_error_set(err, GCP_ERR_UNKNOWN,
-                         "%s:%d: [%s] unknown field model '%.60s' (expected one of: " MODEL_NAMES
-                         ")",
-                         sec->file ? sec->file : "(run)", sec->line, sec->name ? sec->name : "field",
-                         model ? model : "(none)");
-}
-
 void gcp_field_free(struct gcp_field *f)
 {
     if (!f) return;
@@ -104,6 +80,92 @@ int gcp_field_eval(const struct gcp_field *f, double t, const double x[3],
                    struct gcp_field_sample *s)
 {
     return f->type->eval(f, t, x, s);
+}
+
+void gcp_field_axial_potential(const double x[3], double a, const double da[3], double A[3],
+                               double dA[3][3])
+{
+    A[0] = -a * x[1];
+    A[1] = a * x[0];
+    A[2] = 0.0;
+    if (!dA) return;
+    for (int j = 0; j < 3; j++) {
+        dA[0][j] = -x[1] * da[j];
+        dA[1][j] = x[0] * da[j];
+        dA[2][j] = 0.0;
+    }
+    dA[0][1] -= a;
+    dA[1][0] += a;
+}
+
+int gcp_field_key_error(struct gcp_field_args *args, int k, struct gcp_error *err, int code,
+                        const char *fmt, ...)
+{
+    char what[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(what, sizeof what, fmt, ap);
+    va_end(ap);
+    args->bad_key = k;
+    return gcp_error_set(err, code, "%s", what);
+}
+
+unsigned gcp_field_caps(const struct gcp_field *f)
+{
+    const unsigned dyn = GCP_CAP_E | GCP_CAP_TIME | GCP_CAP_AXISYM;
+    return (f->type->caps & ~f->caps_off & ~dyn) | (f->has_E ? GCP_CAP_E : 0u) |
+           (f->time_dependent ? GCP_CAP_TIME : 0u) | (f->axisymmetric ? GCP_CAP_AXISYM : 0u);
+}
+
+int gcp_field_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                        double dA[3][3], double *phi)
+{
+    if (!f->type->potential) return GCP_ERR_UNKNOWN;
+    return f->type->potential(f, t, x, A, dA, phi);
+}
+
+int gcp_field_psi(const struct gcp_field *f, const double x[3], double *psi)
+{
+    if (!f->type->psi || !(gcp_field_caps(f) & GCP_CAP_PSI)) return GCP_ERR_STATE;
+    return f->type->psi(f, x, psi);
+}
+
+double gcp_field_dipole_B0(const struct gcp_field *f)
+{
+    if (!f || !f->type->dipole_B0 || !(gcp_field_caps(f) & GCP_CAP_DIPOLE_L)) return 0.0;
+    return f->type->dipole_B0(f);
+}
+
+void gcp_field_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                        const double *x, const double *y, const double *z,
+                        const struct gcp_field_soa *out, int32_t *status)
+{
+    if (f->type->eval_soa)
+        f->type->eval_soa(f, t, need, n, x, y, z, out, status);
+    else
+        gcp_field_eval_soa_generic(f, t, need, n, x, y, z, out, status);
+}
+
+/* One scalar eval per point, scattered into the SoA arrays the need bits
+ * ask for; statuses as in gcp_field_eval_block_generic. */
+void gcp_field_eval_soa_generic(const struct gcp_field *f, double t, unsigned need, size_t n,
+                                const double *x, const double *y, const double *z,
+                                const struct gcp_field_soa *out, int32_t *status)
+{
+    for (size_t i = 0; i < n; i++) {
+        struct gcp_field_sample s;
+        memset(&s, 0, sizeof s);
+        s.need = need | GCP_NEED_B;
+        const double xi[3] = {x[i], y[i], z[i]};
+        const int rc = f->type->eval(f, t, xi, &s);
+        for (int a = 0; a < 3; a++) {
+            if (need & GCP_NEED_B) out->B[a][i] = s.B[a];
+            if (need & GCP_NEED_E) out->E[a][i] = s.E[a];
+            if (need & GCP_NEED_GRADB)
+                for (int c = 0; c < 3; c++) out->G[a][c][i] = s.gradB[a][c];
+        }
+        if (rc && status && status[i] == 0) status[i] = rc;
+    }
 }
 
 /* One scalar eval per point.  A status already set by the caller (a particle
@@ -153,6 +215,7 @@ const struct gcp_field_type gcp_field_callback = {
     .eval = callback_eval,
     .eval_block = gcp_field_eval_block_generic,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_TIME,
 };
 
 /* The callback may depend on t and on anything in ctx, so the field is

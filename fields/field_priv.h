@@ -11,24 +11,26 @@
 
 #include "gcpush/error.h"
 #include "gcpush/field.h"
-#include "gcpush/section.h"
+#include "gcpush/units.h"
 
 /* A field of the given type with zeroed params of params_size bytes (none
  * when 0) and the defaults "no domain limits": r_inner = 0, r_outer = z_max =
  * INFINITY, no E, static, not axisymmetric.  NULL when out of memory. */
 struct gcp_field *gcp_field_alloc(const struct gcp_field_type *type, size_t params_size);
 
-/* Run-file readers: read the model's keys of [field], validate them, reject
- * unknown keys, build the field.  0, or a negative code with err set; *out
- * is NULL on error. */
-int gcp_field_uniform_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                   struct gcp_error *err);
-int gcp_field_mirror_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                  struct gcp_error *err);
-int gcp_field_dipole_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                  struct gcp_error *err);
-int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                   struct gcp_error *err);
+/* A = a(x) (-y, x, 0) (an axisymmetric A_phi = a R) with the gradient da
+ * of a: fills A and, when dA != NULL, dA[i][j] = dA_i/dx_j (field.c). */
+void gcp_field_axial_potential(const double x[3], double a, const double da[3], double A[3],
+                               double dA[3][3]);
+
+/* A build error about key k of the model's table: sets args->bad_key and
+ * the message (the run layer prefixes the key's file and line).  Returns code. */
+int gcp_field_key_error(struct gcp_field_args *args, int k, struct gcp_error *err, int code,
+                        const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 5, 6)))
+#endif
+    ;
 
 /* Flux function psi = R A_phi [T m^2] and magnetic scalar potential chi
  * (B = -grad chi) [T m] of the curl-free axisymmetric models, dispatched to

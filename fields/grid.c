@@ -409,6 +409,35 @@ static int grid_eval(const struct gcp_field *f, double t, const double x[3],
 }
 
 
+/* Keys: file (required), interpolation = cubic | linear (default cubic),
+ * use_psi = yes | no (default: only when the file has psi and no BR/BZ). */
+enum { GK_FILE, GK_INTERP, GK_PSI };
+static const struct gcp_field_key grid_keys[] = {
+    {"file", GCP_KEY_STRING, 0, 1, {0, 0, 0}, NULL, "HDF5 grid file (fields/README.md)"},
+    {"interpolation", GCP_KEY_STRING, 0, 0, {0, 0, 0}, "cubic", "cubic | linear"},
+    {"use_psi", GCP_KEY_FLAG, 0, 0, {0, 0, 0}, NULL, "poloidal B from psi (default: when no BR/BZ)"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int grid_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const char *interp = a->text[GK_INTERP];
+    const int use_psi = a->given[GK_PSI] ? (a->v[GK_PSI][0] != 0.0) : -1;
+    enum gcp_grid_interp ip;
+    if (strcmp(interp, "cubic") == 0)
+        ip = GCP_INTERP_CUBIC;
+    else if (strcmp(interp, "linear") == 0)
+        ip = GCP_INTERP_LINEAR;
+    else
+        return gcp_field_key_error(a, GK_INTERP, err, GCP_ERR_VALUE,
+                                   "expected cubic or linear, got '%s'", interp);
+    struct gcp_error e2 = {0, ""};
+    const int rc = gcp_field_grid_load(a->text[GK_FILE], ip, use_psi, out, &e2);
+    if (rc) return gcp_field_key_error(a, GK_FILE, err, rc, "%s", e2.msg);
+    return 0;
+}
+
+static int grid_psi(const struct gcp_field *f, const double x[3], double *psi);
+
 const struct gcp_field_type gcp_field_grid = {
     .name = "grid",
     .doc = "B (and E) interpolated from an HDF5 grid file (2D R-Z or 3D x-y-z): file, "
@@ -418,6 +447,10 @@ const struct gcp_field_type gcp_field_grid = {
      * (one indirect call each) is as fast as a specialised one */
     .eval_block = gcp_field_eval_block_generic,
     .destroy = grid_destroy,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_PSI | GCP_CAP_AXISYM,
+    .psi = grid_psi,
+    .keys = grid_keys,
+    .build = grid_build,
 };
 
 struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
@@ -484,6 +517,7 @@ struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
     g->Rmin = axi ? 1e-9 * d->spacing[0] : 0.0;
     f->has_E = g->has_E;
     f->axisymmetric = axi;
+    if (!g->has_psi) f->caps_off |= GCP_CAP_PSI;
     f->r_inner = d->r_inner > 0.0 ? d->r_inner : 0.0;
     f->r_outer = d->r_outer > 0.0 ? d->r_outer : INFINITY;
     f->z_max = d->z_max > 0.0 ? d->z_max : INFINITY;
@@ -511,10 +545,9 @@ int gcp_field_grid_load(const char *path, enum gcp_grid_interp interp, int use_p
     return 0;
 }
 
-int gcp_field_psi(const struct gcp_field *f, const double x[3], double *psi)
+/* psi (GCP_CAP_PSI only where the file has it: caps_off otherwise). */
+static int grid_psi(const struct gcp_field *f, const double x[3], double *psi)
 {
-    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_psi_RZ(f, hypot(x[0], x[1]), x[2], psi);
-    if (f->type != &gcp_field_grid) return GCP_ERR_STATE;
     const struct grid_params *g = f->params;
     if (!g->has_psi) return GCP_ERR_STATE;
     const double p[2] = {hypot(x[0], x[1]), x[2]};
@@ -524,34 +557,6 @@ int gcp_field_psi(const struct gcp_field *f, const double x[3], double *psi)
     gcp_spl_eval(&g->spl, &loc, g->psi_slot, 0, &o);
     *psi = o.f;
     return out ? GCP_LEFT_GRID : 0;
-}
-
-/* Keys: file (required), interpolation = cubic | linear (default cubic),
- * use_psi = yes | no (default: only when the file has psi and no BR/BZ). */
-int gcp_field_grid_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                struct gcp_error *err)
-{
-    char file[1024], interp[32] = "cubic";
-    int use_psi = -1, rc;
-    *out = NULL;
-    if ((rc = gcp_section_string(sec, "file", 1, file, sizeof file, err)) < 0) return rc;
-    if ((rc = gcp_section_string(sec, "interpolation", 0, interp, sizeof interp, err)) < 0)
-        return rc;
-    if ((rc = gcp_section_flag(sec, "use_psi", 0, &use_psi, err)) < 0) return rc;
-    if (rc == 0) use_psi = -1;
-    enum gcp_grid_interp ip;
-    if (strcmp(interp, "cubic") == 0)
-        ip = GCP_INTERP_CUBIC;
-    else if (strcmp(interp, "linear") == 0)
-        ip = GCP_INTERP_LINEAR;
-    else
-        return gcp_section_error(sec, "interpolation", err, GCP_ERR_VALUE,
-                                 "expected cubic or linear, got '%s'", interp);
-    if ((rc = gcp_section_check_unused(sec, "file interpolation use_psi", err)) < 0) return rc;
-    struct gcp_error e2 = {0, ""};
-    rc = gcp_field_grid_load(file, ip, use_psi, out, &e2);
-    if (rc) return gcp_section_error(sec, "file", err, rc, "%s", e2.msg);
-    return 0;
 }
 
 /* psi with its R, Z derivatives (fields/flux_priv.h): cubic grids only (a

@@ -96,21 +96,12 @@ double gcp_spl1_eval(const struct gcp_spl *s, int c, double u, double *du, doubl
 
 #include "gcpush/field.h"
 #include "gcpush/grid.h"
-#include "gcpush/section.h"
 
 extern const struct gcp_field_type gcp_field_grid;
 extern const struct gcp_field_type gcp_field_eqdsk;
 extern const struct gcp_field_type gcp_field_igrf;
 
-/* Run-file readers (dispatched from field.c). */
-int gcp_field_grid_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                struct gcp_error *err);
-int gcp_field_eqdsk_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                 struct gcp_error *err);
-int gcp_field_igrf_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                struct gcp_error *err);
-
-/* psi of an eqdsk field at (R, Z) (grid.c's gcp_field_psi dispatches here). */
+/* psi of an eqdsk field at (R, Z) (the eqdsk type's psi member). */
 int gcp_eqdsk_psi_RZ(const struct gcp_field *f, double R, double Z, double *psi);
 
 /* Cylindrical (R, phi, Z) components and their R, Z derivatives at the

@@ -302,6 +302,46 @@ static void igrf_eval_block(const struct gcp_field *f, double t, size_t n, const
     }
 }
 
+/* Keys: file (required: the IGRF coefficient table), epoch (required,
+ * decimal year), nmax (degree, default: the table's), atmosphere (altitude
+ * of the loss boundary, default 100 km), r_outer (default 15 RE). */
+enum { IK_FILE, IK_EPOCH, IK_NMAX, IK_ATM, IK_ROUT };
+static const struct gcp_field_key igrf_keys[] = {
+    {"file", GCP_KEY_STRING, 0, 1, {0, 0, 0}, NULL, "IGRF coefficient table"},
+    {"epoch", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 1, {0, 0, 0}, NULL, "decimal year"},
+    {"nmax", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 0, {0, 0, 0}, NULL, "degree (default: all)"},
+    {"atmosphere", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {100e3, 0, 0}, NULL,
+     "altitude of the loss boundary [m]"},
+    {"r_outer", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {15.0 * GCP_EARTH_RADIUS, 0, 0}, NULL,
+     "outer boundary [m]"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int igrf_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const double epoch = a->v[IK_EPOCH][0], nmax = a->v[IK_NMAX][0];
+    const double alt = a->v[IK_ATM][0], r_outer = a->v[IK_ROUT][0];
+    if (!(nmax == floor(nmax) && nmax >= 0 && nmax <= NMAX))
+        return gcp_field_key_error(a, IK_NMAX, err, GCP_ERR_VALUE,
+                                   "expected a degree 1 .. %d, got %g", NMAX, nmax);
+    if (!(alt >= 0.0 && isfinite(alt)))
+        return gcp_field_key_error(a, IK_ATM, err, GCP_ERR_VALUE,
+                                   "altitude must be >= 0 and finite, got %g m", alt);
+    const double r_inner = IGRF_A + alt;
+    if (!(r_outer > r_inner && isfinite(r_outer)))
+        return gcp_field_key_error(a, IK_ROUT, err, GCP_ERR_VALUE,
+                                   "must be finite and above the atmosphere (%g m), got %g m",
+                                   r_inner, r_outer);
+    struct gcp_igrf_coeffs c;
+    struct gcp_error e2 = {0, ""};
+    int rc;
+    if ((rc = gcp_igrf_coeffs_at(a->text[IK_FILE], epoch, &c, &e2)) < 0)
+        return gcp_field_key_error(a, rc == GCP_ERR_IO ? IK_FILE : IK_EPOCH, err, rc, "%s",
+                                   e2.msg);
+    *out = gcp_field_igrf_create(&c, (int)nmax, r_inner, r_outer);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "igrf field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_igrf = {
     .name = "igrf",
     .doc = "IGRF geomagnetic main field (geocentric x y z): file, epoch, [nmax] [atmosphere] "
@@ -309,6 +349,9 @@ const struct gcp_field_type gcp_field_igrf = {
     .eval = igrf_eval,
     .eval_block = igrf_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB,
+    .keys = igrf_keys,
+    .build = igrf_build,
 };
 
 struct gcp_field *gcp_field_igrf_create(const struct gcp_igrf_coeffs *c, int nmax, double r_inner,
@@ -345,37 +388,3 @@ struct gcp_field *gcp_field_igrf_create(const struct gcp_igrf_coeffs *c, int nma
  *   nmax       truncation degree (optional; 1 = the dipole terms; default all)
  *   atmosphere altitude above the reference radius of the loss boundary, default 100 km
  *   r_outer    default 15 RE */
-int gcp_field_igrf_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                struct gcp_error *err)
-{
-    char file[1024];
-    double epoch, nmax = 0.0, alt = 100e3, r_outer = 15.0 * GCP_EARTH_RADIUS;
-    int rc;
-    *out = NULL;
-    if ((rc = gcp_section_string(sec, "file", 1, file, sizeof file, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "epoch", GCP_Q_NUMBER, 1, &epoch, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "nmax", GCP_Q_NUMBER, 0, &nmax, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "atmosphere", GCP_Q_LENGTH, 0, &alt, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "r_outer", GCP_Q_LENGTH, 0, &r_outer, err)) < 0)
-        return rc;
-    if (!(nmax == floor(nmax) && nmax >= 0 && nmax <= NMAX))
-        return gcp_section_error(sec, "nmax", err, GCP_ERR_VALUE,
-                                 "expected a degree 1 .. %d, got %g", NMAX, nmax);
-    if (!(alt >= 0.0 && isfinite(alt)))
-        return gcp_section_error(sec, "atmosphere", err, GCP_ERR_VALUE,
-                                 "altitude must be >= 0 and finite, got %g m", alt);
-    const double r_inner = IGRF_A + alt;
-    if (!(r_outer > r_inner && isfinite(r_outer)))
-        return gcp_section_error(sec, "r_outer", err, GCP_ERR_VALUE,
-                                 "must be finite and above the atmosphere (%g m), got %g m",
-                                 r_inner, r_outer);
-    if ((rc = gcp_section_check_unused(sec, "file epoch nmax atmosphere r_outer", err)) < 0)
-        return rc;
-    struct gcp_igrf_coeffs c;
-    struct gcp_error e2 = {0, ""};
-    if ((rc = gcp_igrf_coeffs_at(file, epoch, &c, &e2)) < 0)
-        return gcp_section_error(sec, rc == GCP_ERR_IO ? "file" : "epoch", err, rc, "%s", e2.msg);
-    *out = gcp_field_igrf_create(&c, (int)nmax, r_inner, r_outer);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "igrf field: out of memory");
-    return 0;
-}

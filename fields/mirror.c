@@ -90,12 +90,106 @@ static void mirror_eval_block(const struct gcp_field *f, double t, size_t n, con
     if (Ex) zero3(n, Ex, Ey, Ez);
 }
 
+/* The block evaluation; grad B as in mirror_eval (bit-identical).  Every
+ * array a restrict parameter (distinct scratch arrays), so the loop
+ * vectorises without alias checks; wantG is a constant at each call. */
+static inline __attribute__((always_inline)) void
+mirror_soa_loop(const struct mirror_params *p, int wantG, size_t n, const double *restrict xa,
+                const double *restrict ya, const double *restrict za, double *restrict Bx,
+                double *restrict By, double *restrict Bz, double *restrict G00,
+                double *restrict G01, double *restrict G02, double *restrict G10,
+                double *restrict G11, double *restrict G12, double *restrict G20,
+                double *restrict G21, double *restrict G22)
+{
+    for (size_t i = 0; i < n; i++) {
+        const double x = xa[i], y = ya[i], z = za[i];
+        double bx, by, bz;
+        mirror_B(p, x, y, z, &bx, &by, &bz);
+        Bx[i] = bx, By[i] = by, Bz[i] = bz;
+        if (wantG) {
+            const double k = p->k, kx = k * x, ky = k * y, kz = k * z;
+            G00[i] = -kz, G01[i] = 0.0, G02[i] = -kx;
+            G10[i] = 0.0, G11[i] = -kz, G12[i] = -ky;
+            G20[i] = -kx, G21[i] = -ky, G22[i] = 2.0 * kz;
+        }
+    }
+}
+
+static void mirror_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                            const double *x, const double *y, const double *z,
+                            const struct gcp_field_soa *o, int32_t *status)
+{
+    (void)t;
+    (void)status; /* z_max and r_outer are the scene's */
+    const struct mirror_params q = *(const struct mirror_params *)f->params;
+    if (need & GCP_NEED_GRADB)
+        mirror_soa_loop(&q, 1, n, x, y, z, o->B[0], o->B[1], o->B[2], o->G[0][0], o->G[0][1],
+                        o->G[0][2], o->G[1][0], o->G[1][1], o->G[1][2], o->G[2][0], o->G[2][1],
+                        o->G[2][2]);
+    else
+        mirror_soa_loop(&q, 0, n, x, y, z, o->B[0], o->B[1], o->B[2], NULL, NULL, NULL, NULL,
+                        NULL, NULL, NULL, NULL, NULL);
+    if (need & GCP_NEED_E) zero3(n, o->E[0], o->E[1], o->E[2]);
+}
+
+/* Bz = B0 + k (z^2 - R^2/2), B_R = -k R z, k = B0/Lm^2, from
+ *   A_phi = (R/2) [B0 + k (z^2 - R^2/4)]:  (1/R) d(R A_phi)/dR = Bz,
+ *   -dA_phi/dz = -k R z = B_R;  A = a (-y, x, 0), a = [B0 + k (z^2 - R^2/4)]/2. */
+static int mirror_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                            double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct mirror_params *p = f->params;
+    const double k = p->k;
+    const double a = 0.5 * (p->B0 + k * (x[2] * x[2] - 0.25 * (x[0] * x[0] + x[1] * x[1])));
+    const double da[3] = {-0.25 * k * x[0], -0.25 * k * x[1], k * x[2]};
+    gcp_field_axial_potential(x, a, da, A, dA);
+    if (phi) *phi = 0.0;
+    return 0;
+}
+
+/* Keys: B0 (field, > 0), Lm (length, > 0), z_max (length, > 0: particles
+ * beyond |z| = z_max have left the bottle), r_max (length, optional). */
+enum { MK_B0, MK_LM, MK_ZMAX, MK_RMAX };
+static const struct gcp_field_key mirror_keys[] = {
+    {"B0", GCP_KEY_QUANTITY, GCP_Q_BFIELD, 1, {0, 0, 0}, NULL, "field at the centre [T]"},
+    {"Lm", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "length over which B doubles [m]"},
+    {"z_max", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "|z| beyond which particles leave [m]"},
+    {"r_max", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 0, {INFINITY, 0, 0}, NULL, "radial bound [m] (none)"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int mirror_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    const double B0 = a->v[MK_B0][0], Lm = a->v[MK_LM][0], z_max = a->v[MK_ZMAX][0];
+    const double r_max = a->v[MK_RMAX][0];
+    if (!(B0 > 0.0 && isfinite(B0)))
+        return gcp_field_key_error(a, MK_B0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g T", B0);
+    if (!(Lm > 0.0 && isfinite(Lm)))
+        return gcp_field_key_error(a, MK_LM, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", Lm);
+    if (!(z_max > 0.0 && isfinite(z_max)))
+        return gcp_field_key_error(a, MK_ZMAX, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", z_max);
+    if (a->given[MK_RMAX] && !(r_max > 0.0 && isfinite(r_max)))
+        return gcp_field_key_error(a, MK_RMAX, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", r_max);
+    *out = gcp_field_mirror_create(B0, Lm, z_max, r_max);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "mirror field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_mirror = {
     .name = "mirror",
     .doc = "vacuum magnetic bottle Bz = B0 (1 + (z^2 - r^2/2)/Lm^2): B0, Lm, z_max [, r_max]",
     .eval = mirror_eval,
     .eval_block = mirror_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_A | GCP_CAP_AXISYM,
+    .eval_soa = mirror_eval_soa,
+    .potential = mirror_potential,
+    .keys = mirror_keys,
+    .build = mirror_build,
 };
 
 /* r_max <= 0 or infinite: no radial bound.  r_max becomes f->r_outer, which
@@ -113,37 +207,6 @@ struct gcp_field *gcp_field_mirror_create(double B0, double Lm, double z_max, do
     f->z_max = z_max > 0.0 ? z_max : INFINITY;
     f->r_outer = r_max > 0.0 ? r_max : INFINITY;
     return f;
-}
-
-/* Keys: B0 (field, > 0), Lm (length, > 0), z_max (length, > 0: particles
- * beyond |z| = z_max have left the bottle), r_max (length, optional). */
-int gcp_field_mirror_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                  struct gcp_error *err)
-{
-    double B0, Lm, z_max, r_max = INFINITY;
-    int rc;
-    *out = NULL;
-    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 1, &B0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "Lm", GCP_Q_LENGTH, 1, &Lm, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "z_max", GCP_Q_LENGTH, 1, &z_max, err)) < 0) return rc;
-    int has_r = gcp_section_quantity(sec, "r_max", GCP_Q_LENGTH, 0, &r_max, err);
-    if (has_r < 0) return has_r;
-    if (!(B0 > 0.0 && isfinite(B0)))
-        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g T", B0);
-    if (!(Lm > 0.0 && isfinite(Lm)))
-        return gcp_section_error(sec, "Lm", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", Lm);
-    if (!(z_max > 0.0 && isfinite(z_max)))
-        return gcp_section_error(sec, "z_max", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", z_max);
-    if (has_r && !(r_max > 0.0 && isfinite(r_max)))
-        return gcp_section_error(sec, "r_max", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", r_max);
-    if ((rc = gcp_section_check_unused(sec, "B0 Lm z_max r_max", err)) < 0) return rc;
-    *out = gcp_field_mirror_create(B0, Lm, z_max, r_max);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "mirror field: out of memory");
-    return 0;
 }
 
 /* Flux function and magnetic scalar potential (fields/potential.c), with

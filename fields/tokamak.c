@@ -176,12 +176,161 @@ static void tokamak_eval_block(const struct gcp_field *f, double t, size_t n, co
     if (Ex) zero3(n, Ex, Ey, Ez);
 }
 
+/* The block evaluation; grad B as in tokamak_eval, operation for operation
+ * (bit-identical), and the domain test as in tok_block.  Every array a
+ * restrict parameter (distinct scratch arrays), so the loop vectorises
+ * without alias checks; wantG and wantS are constants at each call. */
+static inline __attribute__((always_inline)) void
+tok_soa_loop(const struct tokamak_params *p, int wantG, int wantS, size_t n,
+             const double *restrict xa, const double *restrict ya, const double *restrict za,
+             double *restrict Bx, double *restrict By, double *restrict Bz, double *restrict G00,
+             double *restrict G01, double *restrict G02, double *restrict G10,
+             double *restrict G11, double *restrict G12, double *restrict G20,
+             double *restrict G21, double *restrict G22, int32_t *restrict st)
+{
+    for (size_t i = 0; i < n; i++) {
+        const double x = xa[i], y = ya[i], z = za[i];
+        double bx, by, bz;
+        const double r2 = tok_B(p, x, y, z, &bx, &by, &bz);
+        Bx[i] = bx, By[i] = by, Bz[i] = bz;
+        if (wantG) {
+            double R2 = x * x + y * y;
+            R2 = R2 > p->R2min ? R2 : p->R2min;
+            const double R = sqrt(R2), u = 1.0 / R2, w = (R - p->R0) / R;
+            double q = p->q0 + p->dq * r2;
+            q = q > p->qmin ? q : p->qmin;
+            const double F = p->B0 / q, G = F * z, Fp = -F * p->dq / q;
+            const double dFx = 2.0 * Fp * w * x, dFy = 2.0 * Fp * w * y, dFz = 2.0 * Fp * z;
+            const double dGx = z * dFx, dGy = z * dFy, dGz = z * dFz + F;
+            const double P = G * x + p->B0R0 * y, Q = p->B0R0 * x - G * y;
+            const double u2 = u * u, FR0R3 = F * p->R0 * u / R;
+            G00[i] = -(x * dGx + G) * u + 2.0 * x * P * u2;
+            G01[i] = -(x * dGy + p->B0R0) * u + 2.0 * y * P * u2;
+            G02[i] = -x * dGz * u;
+            G10[i] = (p->B0R0 - y * dGx) * u - 2.0 * x * Q * u2;
+            G11[i] = -(y * dGy + G) * u - 2.0 * y * Q * u2;
+            G12[i] = -y * dGz * u;
+            G20[i] = dFx * w + FR0R3 * x;
+            G21[i] = dFy * w + FR0R3 * y;
+            G22[i] = dFz * w;
+        }
+        if (wantS) {
+            const int32_t s0 = st[i];
+            st[i] = s0 + (int32_t)(s0 == 0) * (int32_t)(r2 > p->a2) * GCP_LEFT_DOMAIN;
+        }
+    }
+}
+
+#define TOK_SOA_LOOP(WG, WS)                                                                    \
+    tok_soa_loop(&p, WG, WS, n, x, y, z, o->B[0], o->B[1], o->B[2], o->G[0][0], o->G[0][1],      \
+                 o->G[0][2], o->G[1][0], o->G[1][1], o->G[1][2], o->G[2][0], o->G[2][1],         \
+                 o->G[2][2], status)
+
+static void tokamak_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                             const double *x, const double *y, const double *z,
+                             const struct gcp_field_soa *o, int32_t *status)
+{
+    (void)t;
+    const struct tokamak_params p = *(const struct tokamak_params *)f->params;
+    const int G = (need & GCP_NEED_GRADB) != 0, S = status != NULL;
+    if (G && S) TOK_SOA_LOOP(1, 1);
+    else if (G) TOK_SOA_LOOP(1, 0);
+    else if (S) TOK_SOA_LOOP(0, 1);
+    else TOK_SOA_LOOP(0, 0);
+    if (need & GCP_NEED_E) zero3(n, o->E[0], o->E[1], o->E[2]);
+}
+#undef TOK_SOA_LOOP
+
+/* B_phi = B0 R0 / R from A_R = B0 R0 Z / R (curl_phi = dA_R/dZ = B0 R0/R;
+ * curl_R = curl_Z = 0), and B_pol = grad psi x grad phi = curl(psi grad phi)
+ * from A_phi = psi / R, with
+ *   psi(r) = int_0^r B0 r'/q(r') dr' = (B0/(2 dq)) ln(1 + dq r^2/q0)
+ * (= B0 r^2/(2 q0) for dq = 0), r^2 = (R - R0)^2 + Z^2.  Cartesian:
+ * A_x = (g x - psi y)/R^2, A_y = (g y + psi x)/R^2, A_z = 0, g = B0 R0 z;
+ * dpsi/dx = F w x, dpsi/dy = F w y, dpsi/dz = F z, F = B0/q(r), w = (R - R0)/R. */
+static int tokamak_potential(const struct gcp_field *f, double t, const double xv[3],
+                             double A[3], double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct tokamak_params *p = f->params;
+    const double x = xv[0], y = xv[1], z = xv[2];
+    double s = x * x + y * y;
+    s = s > p->R2min ? s : p->R2min;
+    const double R = sqrt(s), is = 1.0 / s;
+    const double dR = R - p->R0;
+    const double r2 = dR * dR + z * z;
+    /* psi = B0 r^2/(2 q0) * log1p(v)/v, v = dq r^2 / q0 (-> 1 as v -> 0) */
+    const double v = p->dq * r2 / p->q0;
+    const double lv = v != 0.0 ? log1p(v) / v : 1.0;
+    const double psi = p->B0 * r2 / (2.0 * p->q0) * lv;
+    const double g = p->B0R0 * z;
+    A[0] = (g * x - psi * y) * is;
+    A[1] = (g * y + psi * x) * is;
+    A[2] = 0.0;
+    if (dA) {
+        const double q = p->q0 + p->dq * r2; /* unclamped: exact inside the plasma */
+        const double F = p->B0 / q, w = dR / R;
+        const double px = F * w * x, py = F * w * y, pz = F * z;
+        const double P = g * x - psi * y, Q = g * y + psi * x, is2 = is * is;
+        dA[0][0] = (g - y * px) * is - 2.0 * x * P * is2;
+        dA[0][1] = (-psi - y * py) * is - 2.0 * y * P * is2;
+        dA[0][2] = (p->B0R0 * x - y * pz) * is;
+        dA[1][0] = (psi + x * px) * is - 2.0 * x * Q * is2;
+        dA[1][1] = (g + x * py) * is - 2.0 * y * Q * is2;
+        dA[1][2] = (p->B0R0 * y + x * pz) * is;
+        dA[2][0] = dA[2][1] = dA[2][2] = 0.0;
+    }
+    if (phi) *phi = 0.0;
+    return 0;
+}
+
+/* Keys, all required: B0 (field on axis, non-zero; its sign sets the field
+ * direction), R0 (major radius), a (minor radius, 0 < a < R0), q0, qa
+ * (numbers > 0). */
+enum { TK_B0, TK_R0, TK_A, TK_Q0, TK_QA };
+static const struct gcp_field_key tokamak_keys[] = {
+    {"B0", GCP_KEY_QUANTITY, GCP_Q_BFIELD, 1, {0, 0, 0}, NULL, "toroidal field on axis [T]"},
+    {"R0", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "major radius [m]"},
+    {"a", GCP_KEY_QUANTITY, GCP_Q_LENGTH, 1, {0, 0, 0}, NULL, "minor radius [m]"},
+    {"q0", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 1, {0, 0, 0}, NULL, "safety factor on axis"},
+    {"qa", GCP_KEY_QUANTITY, GCP_Q_NUMBER, 1, {0, 0, 0}, NULL, "safety factor at r = a"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int tokamak_build(struct gcp_field_args *k, struct gcp_field **out, struct gcp_error *err)
+{
+    const double B0 = k->v[TK_B0][0], R0 = k->v[TK_R0][0], a = k->v[TK_A][0];
+    const double q0 = k->v[TK_Q0][0], qa = k->v[TK_QA][0];
+    if (!(B0 != 0.0 && isfinite(B0)))
+        return gcp_field_key_error(k, TK_B0, err, GCP_ERR_VALUE,
+                                   "must be non-zero and finite, got %g T", B0);
+    if (!(R0 > 0.0 && isfinite(R0)))
+        return gcp_field_key_error(k, TK_R0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g m", R0);
+    if (!(a > 0.0 && a < R0))
+        return gcp_field_key_error(k, TK_A, err, GCP_ERR_VALUE,
+                                   "minor radius must be in (0, R0 = %g m), got %g m", R0, a);
+    if (!(q0 > 0.0 && isfinite(q0)))
+        return gcp_field_key_error(k, TK_Q0, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g", q0);
+    if (!(qa > 0.0 && isfinite(qa)))
+        return gcp_field_key_error(k, TK_QA, err, GCP_ERR_VALUE,
+                                   "must be positive and finite, got %g", qa);
+    *out = gcp_field_tokamak_create(B0, R0, a, q0, qa);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "tokamak field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_tokamak = {
     .name = "tokamak",
     .doc = "analytic circular tokamak, q(r) = q0 + (qa - q0)(r/a)^2: B0, R0, a, q0, qa",
     .eval = tokamak_eval,
     .eval_block = tokamak_eval_block,
     .destroy = NULL,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_A | GCP_CAP_AXISYM,
+    .eval_soa = tokamak_eval_soa,
+    .potential = tokamak_potential,
+    .keys = tokamak_keys,
+    .build = tokamak_build,
 };
 
 struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, double q0, double qa)
@@ -203,41 +352,6 @@ struct gcp_field *gcp_field_tokamak_create(double B0, double R0, double a, doubl
     f->r_outer = R0 + a;
     f->z_max = a;
     return f;
-}
-
-/* Keys, all required: B0 (field on axis, non-zero; its sign sets the field
- * direction), R0 (major radius), a (minor radius, 0 < a < R0), q0, qa
- * (numbers > 0). */
-int gcp_field_tokamak_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                   struct gcp_error *err)
-{
-    double B0, R0, a, q0, qa;
-    int rc;
-    *out = NULL;
-    if ((rc = gcp_section_quantity(sec, "B0", GCP_Q_BFIELD, 1, &B0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "R0", GCP_Q_LENGTH, 1, &R0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "a", GCP_Q_LENGTH, 1, &a, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "q0", GCP_Q_NUMBER, 1, &q0, err)) < 0) return rc;
-    if ((rc = gcp_section_quantity(sec, "qa", GCP_Q_NUMBER, 1, &qa, err)) < 0) return rc;
-    if (!(B0 != 0.0 && isfinite(B0)))
-        return gcp_section_error(sec, "B0", err, GCP_ERR_VALUE,
-                                 "must be non-zero and finite, got %g T", B0);
-    if (!(R0 > 0.0 && isfinite(R0)))
-        return gcp_section_error(sec, "R0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g m", R0);
-    if (!(a > 0.0 && a < R0))
-        return gcp_section_error(sec, "a", err, GCP_ERR_VALUE,
-                                 "minor radius must be in (0, R0 = %g m), got %g m", R0, a);
-    if (!(q0 > 0.0 && isfinite(q0)))
-        return gcp_section_error(sec, "q0", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g", q0);
-    if (!(qa > 0.0 && isfinite(qa)))
-        return gcp_section_error(sec, "qa", err, GCP_ERR_VALUE,
-                                 "must be positive and finite, got %g", qa);
-    if ((rc = gcp_section_check_unused(sec, "B0 R0 a q0 qa", err)) < 0) return rc;
-    *out = gcp_field_tokamak_create(B0, R0, a, q0, qa);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "tokamak field: out of memory");
-    return 0;
 }
 
 /* ---- flux function and the exact orthogonal chart (fields/flux_priv.h) ---- */

@@ -53,12 +53,72 @@ static void uniform_eval_block(const struct gcp_field *f, double t, size_t n, co
     }
 }
 
+static void uniform_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                             const double *x, const double *y, const double *z,
+                             const struct gcp_field_soa *out, int32_t *status)
+{
+    (void)t, (void)x, (void)y, (void)z, (void)status;
+    const struct uniform_params *p = f->params;
+    for (int a = 0; a < 3; a++) {
+        if (need & GCP_NEED_B) fill(n, p->B[a], out->B[a]);
+        if (need & GCP_NEED_E) fill(n, p->E[a], out->E[a]);
+        if (need & GCP_NEED_GRADB)
+            for (int c = 0; c < 3; c++) fill(n, 0.0, out->G[a][c]);
+    }
+}
+
+/* A = (1/2) B x x, dA_i/dx_l = (1/2) eps_ijl B_j;  phi = -E.x. */
+static int uniform_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                             double dA[3][3], double *phi)
+{
+    (void)t;
+    const struct uniform_params *p = f->params;
+    const double *B = p->B;
+    A[0] = 0.5 * (B[1] * x[2] - B[2] * x[1]);
+    A[1] = 0.5 * (B[2] * x[0] - B[0] * x[2]);
+    A[2] = 0.5 * (B[0] * x[1] - B[1] * x[0]);
+    if (dA) {
+        dA[0][0] = 0.0, dA[0][1] = -0.5 * B[2], dA[0][2] = 0.5 * B[1];
+        dA[1][0] = 0.5 * B[2], dA[1][1] = 0.0, dA[1][2] = -0.5 * B[0];
+        dA[2][0] = -0.5 * B[1], dA[2][1] = 0.5 * B[0], dA[2][2] = 0.0;
+    }
+    if (phi) *phi = -(p->E[0] * x[0] + p->E[1] * x[1] + p->E[2] * x[2]);
+    return 0;
+}
+
+/* Keys: B (vector, required), E (vector, optional). */
+enum { UK_B, UK_E };
+static const struct gcp_field_key uniform_keys[] = {
+    {"B", GCP_KEY_VECTOR, GCP_Q_BFIELD, 1, {0, 0, 0}, NULL, "magnetic field vector [T]"},
+    {"E", GCP_KEY_VECTOR, GCP_Q_EFIELD, 0, {0, 0, 0}, NULL, "electric field vector [V/m]"},
+    {NULL, 0, 0, 0, {0, 0, 0}, NULL, NULL}};
+
+static int uniform_build(struct gcp_field_args *a, struct gcp_field **out, struct gcp_error *err)
+{
+    for (int i = 0; i < 3; i++) {
+        if (!isfinite(a->v[UK_B][i]))
+            return gcp_field_key_error(a, UK_B, err, GCP_ERR_VALUE, "components must be finite");
+        if (!isfinite(a->v[UK_E][i]))
+            return gcp_field_key_error(a, UK_E, err, GCP_ERR_VALUE, "components must be finite");
+    }
+    *out = gcp_field_uniform_create(a->v[UK_B], a->v[UK_E]);
+    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "uniform field: out of memory");
+    return 0;
+}
+
 const struct gcp_field_type gcp_field_uniform = {
     .name = "uniform",
     .doc = "constant B (and optional E): B = 0 0 1 T, E = 0 0 0 V/m",
     .eval = uniform_eval,
     .eval_block = uniform_eval_block,
     .destroy = NULL,
+    /* not GCP_CAP_AXISYM: B may point anywhere (the symmetric gauge above
+     * is about B, not z, so p_phi is not a constant of a tilted B) */
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A,
+    .eval_soa = uniform_eval_soa,
+    .potential = uniform_potential,
+    .keys = uniform_keys,
+    .build = uniform_build,
 };
 
 /* E may be NULL (no electric field). */
@@ -75,25 +135,3 @@ struct gcp_field *gcp_field_uniform_create(const double B[3], const double E[3])
     return f;
 }
 
-/* Keys: B (vector, required), E (vector, optional). */
-int gcp_field_uniform_from_section(struct gcp_section *sec, struct gcp_field **out,
-                                   struct gcp_error *err)
-{
-    double B[3], E[3] = {0.0, 0.0, 0.0};
-    *out = NULL;
-    int rc = gcp_section_vector(sec, "B", GCP_Q_BFIELD, 1, B, err);
-    if (rc < 0) return rc;
-    rc = gcp_section_vector(sec, "E", GCP_Q_EFIELD, 0, E, err);
-    if (rc < 0) return rc;
-    for (int i = 0; i < 3; i++) {
-        if (!isfinite(B[i]))
-            return gcp_section_error(sec, "B", err, GCP_ERR_VALUE, "components must be finite");
-        if (!isfinite(E[i]))
-            return gcp_section_error(sec, "E", err, GCP_ERR_VALUE, "components must be finite");
-    }
-    rc = gcp_section_check_unused(sec, "B E", err);
-    if (rc < 0) return rc;
-    *out = gcp_field_uniform_create(B, E);
-    if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "uniform field: out of memory");
-    return 0;
-}

@@ -9,7 +9,6 @@
 #include <string.h>
 
 #include "gcpush/error.h"
-#include "gcpush/field.h"
 #include "gcpush/particles.h"
 #include "gcpush/units.h"
 

@@ -7,6 +7,8 @@
  */
 #ifndef GCPUSH_ERROR_H
 #define GCPUSH_ERROR_H
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -40,4 +42,5 @@ int gcp_error_set(struct gcp_error *e, int code, const char *fmt, ...)
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

@@ -15,11 +15,14 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "units.h"
+#include "api.h"
+GCP_API_BEGIN
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-struct gcp_section; /* run-file section, see run.h */
 struct gcp_error;   /* error message buffer, see error.h */
 
 /* What a caller asks a field for (bit set in gcp_field_sample.need). */
@@ -44,6 +47,58 @@ typedef int (*gcp_field_eval_fn)(double t, const double x[3], struct gcp_field_s
 
 struct gcp_field;
 
+/* What a model can give: capability bits.  gcp_field_type.caps lists what
+ * the model can give at most; gcp_field_caps(f) what this field instance
+ * gives (a dipole without corotation has no E, a grid without psi no psi).
+ * Code outside fields/ asks these bits, never which model it has. */
+enum gcp_field_cap {
+    GCP_CAP_B = 1u << 0,        /* B (every model) */
+    GCP_CAP_GRADB = 1u << 1,    /* grad B tensor */
+    GCP_CAP_E = 1u << 2,        /* a non-zero electric field */
+    GCP_CAP_A = 1u << 3,        /* vector potential A and dA (type->potential), phi */
+    GCP_CAP_PSI = 1u << 4,      /* poloidal flux psi = R A_phi (type->psi) */
+    GCP_CAP_TIME = 1u << 5,     /* B or E depends on t */
+    GCP_CAP_AXISYM = 1u << 6,   /* symmetric about the z axis */
+    GCP_CAP_DIPOLE_L = 1u << 7  /* centred dipole: McIlwain L = r/(R_E cos^2 lat) and the
+                                   surface field B0 (type->dipole_B0) are its magnetic coordinates */
+};
+
+/* Struct-of-arrays outputs of a block evaluation: n entries per array.
+ * Only the arrays the need bits ask for are touched (others may be NULL). */
+struct gcp_field_soa {
+    double *B[3];    /* [T] Bx, By, Bz (GCP_NEED_B) */
+    double *G[3][3]; /* [T/m] G[i][j][k] = dB_i/dx_j at point k (GCP_NEED_GRADB) */
+    double *E[3];    /* [V/m] Ex, Ey, Ez (GCP_NEED_E; zeros where the field has none) */
+};
+
+/* One run-file key of a model (see fields/README.md and src/run/field_keys.c):
+ * the run layer reads the keys a model declares, with their units, and hands
+ * the plain values to the model's `build`. */
+enum gcp_field_key_kind {
+    GCP_KEY_QUANTITY, /* one number with a unit of `quantity` (enum gcp_quantity) */
+    GCP_KEY_VECTOR,   /* three numbers with one unit */
+    GCP_KEY_FLAG,     /* yes/no */
+    GCP_KEY_STRING    /* text (a file name, a choice) */
+};
+struct gcp_field_key {
+    const char *name;     /* run-file key */
+    int kind;             /* enum gcp_field_key_kind */
+    int quantity;         /* enum gcp_quantity of QUANTITY and VECTOR keys */
+    int required;         /* [bool] */
+    double def[3];        /* default of a QUANTITY, VECTOR or FLAG key that is not required */
+    const char *def_text; /* default of a STRING key (NULL: empty) */
+    const char *doc;      /* one line for --help */
+};
+#define GCP_FIELD_MAX_KEYS 8
+#define GCP_FIELD_TEXT_MAX 1024
+/* The values of a model's keys, index for index with its key table. */
+struct gcp_field_args {
+    double v[GCP_FIELD_MAX_KEYS][3];              /* QUANTITY (v[k][0]), VECTOR, FLAG (0/1) [SI] */
+    char text[GCP_FIELD_MAX_KEYS][GCP_FIELD_TEXT_MAX]; /* STRING values */
+    int given[GCP_FIELD_MAX_KEYS];                /* [bool] the run file set key k */
+    int bad_key;                                  /* [out] key a build error is about (-1: none) */
+};
+
 struct gcp_field_type {
     const char *name; /* run-file name: "uniform", "dipole", ... */
     const char *doc;  /* one line for --help */
@@ -59,6 +114,30 @@ struct gcp_field_type {
                        double *Ex, double *Ey, double *Ez, int32_t *status);
     /* Frees params (may be NULL when params needs only free()). */
     void (*destroy)(void *params);
+    /* ---- the complete interface (issue 12); NULL members fall back ---- */
+    unsigned caps; /* GCP_CAP_* the model can give */
+    /* Block evaluation with need bits (GCP_NEED_*, grad B included) over
+     * struct-of-arrays points; status as in eval_block.  Bit-identical to
+     * eval point by point.  NULL: gcp_field_eval_soa loops over eval. */
+    void (*eval_soa)(const struct gcp_field *f, double t, unsigned need, size_t n,
+                     const double *x, const double *y, const double *z,
+                     const struct gcp_field_soa *out, int32_t *status);
+    /* Vector potential A [T m], dA[i][j] = dA_i/dx_j [T] (dA may be NULL)
+     * and electrostatic potential phi [V] (E = -grad phi; may be NULL).
+     * 0, or GCP_ERR_UNKNOWN where the model has none.  (GCP_CAP_A) */
+    int (*potential)(const struct gcp_field *f, double t, const double x[3], double A[3],
+                     double dA[3][3], double *phi);
+    /* Poloidal flux psi = R A_phi [T m^2] at x: 0, a particle status
+     * outside the domain, or GCP_ERR_STATE where the field has none.  (GCP_CAP_PSI) */
+    int (*psi)(const struct gcp_field *f, const double x[3], double *psi);
+    /* Centred-dipole models: the equatorial surface field B0 [T] that, with
+     * L = r/(R_E cos^2 lat), gives B_eq = B0/L^3.  (GCP_CAP_DIPOLE_L) */
+    double (*dipole_B0)(const struct gcp_field *f);
+    /* Run-file keys (NULL-name terminated, at most GCP_FIELD_MAX_KEYS) and
+     * the constructor from their values: 0, or a negative code with err set
+     * (args->bad_key names the key at fault).  NULL: not a run-file model. */
+    const struct gcp_field_key *keys;
+    int (*build)(struct gcp_field_args *args, struct gcp_field **out, struct gcp_error *err);
 };
 
 struct gcp_field {
@@ -70,16 +149,15 @@ struct gcp_field {
     double r_inner;     /* [m] a particle with |x| < r_inner is PRECIPITATED (0: none) */
     double r_outer;     /* [m] a particle with |x| > r_outer has LEFT_DOMAIN (inf: none) */
     double z_max;       /* [m] a particle with |z| > z_max has LEFT_DOMAIN (inf: none) */
+    unsigned caps_off;  /* GCP_CAP_* of the type this instance lacks (a grid without psi) */
 };
 
 #ifndef GCP_PI
 #define GCP_PI 3.14159265358979323846 /* pi (M_PI is not ISO C) */
 #endif
 
-/* Physical constants of the Earth models. */
-#define GCP_EARTH_RADIUS 6.3712e6    /* R_E [m] (IGRF reference radius) */
-#define GCP_EARTH_B0 3.12e-5         /* equatorial surface dipole field [T] */
-#define GCP_EARTH_OMEGA 7.2921159e-5 /* Earth's sidereal rotation rate [rad/s] */
+/* The Earth's constants (GCP_EARTH_RADIUS, GCP_EARTH_B0, GCP_EARTH_OMEGA)
+ * live in units.h, below the fields layer (the RE unit needs the radius). */
 
 /* Built-in models. */
 extern const struct gcp_field_type gcp_field_uniform;
@@ -93,11 +171,8 @@ const struct gcp_field_type *gcp_field_type_lookup(const char *name);
 /* NULL-terminated list of all built-in models (for --help). */
 const struct gcp_field_type *const *gcp_field_types(void);
 
-/* Build a field from its run-file section ([field]): each model reads its
- * own keys, marks them used, and rejects values it cannot take.  Returns 0,
- * or a negative code with err filled ("file:line: [field] key: ..."). */
-int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
-                           struct gcp_error *err);
+/* gcp_field_from_section, the run-file reader of [field], is the run
+ * layer's (run.h): each model only declares its keys and builds. */
 
 /* Direct constructors for library users (SI).  Each returns NULL only when
  * out of memory. */
@@ -124,6 +199,28 @@ void gcp_field_free(struct gcp_field *f);
 int gcp_field_eval(const struct gcp_field *f, double t, const double x[3],
                    struct gcp_field_sample *s);
 
+/* What this field gives: type->caps less caps_off, with E, TIME and AXISYM
+ * from has_E, time_dependent and axisymmetric. */
+unsigned gcp_field_caps(const struct gcp_field *f);
+
+/* Block evaluation with need bits (type->eval_soa, or eval per point). */
+void gcp_field_eval_soa(const struct gcp_field *f, double t, unsigned need, size_t n,
+                        const double *x, const double *y, const double *z,
+                        const struct gcp_field_soa *out, int32_t *status);
+void gcp_field_eval_soa_generic(const struct gcp_field *f, double t, unsigned need, size_t n,
+                                const double *x, const double *y, const double *z,
+                                const struct gcp_field_soa *out, int32_t *status);
+
+/* Vector potential (type->potential): see there.  GCP_ERR_UNKNOWN without one. */
+int gcp_field_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
+                        double dA[3][3], double *phi);
+
+/* Centred-dipole surface field B0 [T] of a GCP_CAP_DIPOLE_L field, else 0. */
+double gcp_field_dipole_B0(const struct gcp_field *f);
+
+/* The run-file model names, space separated, into buf (for messages). */
+const char *gcp_field_model_names(char *buf, size_t size);
+
 /* Generic block evaluation via the scalar eval, for models without their own. */
 void gcp_field_eval_block_generic(const struct gcp_field *f, double t, size_t n,
                                   const double *x, const double *y, const double *z, double *Bx,
@@ -142,4 +239,5 @@ int gcp_field_flux_potential(const struct gcp_field *f, const double x[3], doubl
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_FIELD_H */

@@ -42,6 +42,8 @@
 
 #include "field.h"
 #include "pusher.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -134,4 +136,5 @@ int gcp_gc_push(const struct gcp_field *f, const struct gcp_pusher_type *p, doub
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_GC_H */

@@ -1,15 +1,21 @@
-/* gcpush/gcpush.h -- umbrella header of the gcpush library. */
+/* gcpush/gcpush.h -- umbrella header of the gcpush library: everything a
+ * PIC code or an embedding program needs, free of MPI and HDF5.  The
+ * output layer (HDF5 files, MPI ranks) is apart: #include <gcpush/io.h>,
+ * which needs mpi.h on the include path. */
 #ifndef GCPUSH_GCPUSH_H
 #define GCPUSH_GCPUSH_H
 
 #include "error.h"
 #include "field.h"
-#include "io.h"
+#include "gc.h"
+#include "grid.h"
+#include "invariants.h"
 #include "kernels.h"
 #include "particles.h"
 #include "pusher.h"
 #include "run.h"
 #include "section.h"
+#include "sweep.h"
 #include "units.h"
 
 #endif

@@ -16,7 +16,8 @@
 
 #include "error.h"
 #include "field.h"
-#include "section.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -75,16 +76,6 @@ void gcp_grid_data_free(struct gcp_grid_data *d);
  * Non-finite source values are an error naming the node. */
 int gcp_grid_sample(const struct gcp_field *src, const struct gcp_grid_spec *spec,
                     const char *path, struct gcp_error *err);
-
-/* The [grid] section of a `gcpush grid FILE.run` run file:
- *   geometry = axisymmetric | cartesian
- *   file     = fields/data/dipole.h5           (output)
- *   R_min, R_max, Z_min, Z_max = lengths; nR, nZ = node counts   (axisymmetric)
- *   x_min .. z_max, nx, ny, nz                                     (cartesian)
- *   time     = 0 s                              (optional)
- * Fills spec and path (pathlen bytes).  0 or a negative code (err set). */
-int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *spec, char *path,
-                               size_t pathlen, struct gcp_error *err);
 
 /* The `grid` model from data in memory (copied: d may be freed after).
  * use_psi: axisymmetric only; B_R, B_Z from the spline of psi (exactly
@@ -154,4 +145,5 @@ struct gcp_field *gcp_field_igrf_create(const struct gcp_igrf_coeffs *c, int nma
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_GRID_H */

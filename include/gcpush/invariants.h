@@ -47,7 +47,11 @@
 #include <stdint.h>
 
 #include "field.h"
+#include "particles.h"
+#include "units.h"
 #include "pusher.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -156,7 +160,16 @@ double gcp_dipole_loss_cone(double L, double r_atm);
  * model, GCP_EARTH_B0 otherwise. */
 double gcp_observer_reference_B0(const struct gcp_field *f);
 
+/* The period of `which` for a particle of species sp with state (x, u) in
+ * field f: gyro 2 pi gamma m / (|q| B) anywhere; bounce and drift from
+ * guiding-centre theory in fields with centred-dipole coordinates
+ * (GCP_CAP_DIPOLE_L; `model` is not used).  Returns 0 or GCP_ERR_STATE when
+ * the field has no such period.  (src/diag/periods.c) */
+int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp_species *sp,
+                  const double x[3], const double u[3], enum gcp_period which, double *period);
+
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_INVARIANTS_H */

@@ -15,6 +15,8 @@
 #include "error.h"
 #include "invariants.h"
 #include "run.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -107,4 +109,5 @@ void gcp_results_drop(struct gcp_results *r, const unsigned char *keep);
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

@@ -4,6 +4,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -67,4 +69,5 @@ void gcp_particles_free(struct gcp_particles *p);
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

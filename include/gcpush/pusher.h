@@ -20,6 +20,8 @@
 #include <stdint.h>
 
 #include "field.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -161,4 +163,5 @@ int gcp_orbit_push(const struct gcp_field *f, const struct gcp_pusher_type *p, d
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

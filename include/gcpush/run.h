@@ -14,10 +14,13 @@
 #include "error.h"
 #include "field.h"
 #include "hybrid.h"
+#include "invariants.h"
 #include "particles.h"
 #include "pusher.h"
 #include "section.h"
 #include "units.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -139,17 +142,31 @@ int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, dou
 int gcp_scene_initial_gc(const struct gcp_scene *s, int64_t id, double X[3], double *ppar,
                          double *mu);
 
-/* The period of `which` for a particle of species sp with state (x, u) in
- * field f: gyro 2 pi gamma m / (|q| B) anywhere; bounce and drift in the
- * dipole from guiding-centre theory.  Returns 0 or GCP_ERR_STATE when the
- * field has no such period. */
 /* `gcpush grid FILE.run`: samples the file's [scene] field with its [field]
  * keys onto the grid of its [grid] section; the grid file's path is copied
  * to out.  0, or a negative code with err set (no file left on failure). */
 int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err);
 
-int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp_species *sp,
-                  const double x[3], const double u[3], enum gcp_period which, double *period);
+/* The [grid] section of a `gcpush grid FILE.run` run file:
+ *   geometry = axisymmetric | cartesian
+ *   file     = fields/data/dipole.h5           (output)
+ *   R_min, R_max, Z_min, Z_max = lengths; nR, nZ = node counts   (axisymmetric)
+ *   x_min .. z_max, nx, ny, nz                                     (cartesian)
+ *   time     = 0 s                              (optional)
+ * Fills spec and path (pathlen bytes).  0 or a negative code (err set). */
+struct gcp_grid_spec;
+int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *spec, char *path,
+                               size_t pathlen, struct gcp_error *err);
+
+/* Builds a field from its run-file section ([field]): reads the keys the
+ * model declares (gcp_field_type.keys, with their units), rejects others,
+ * and calls the model's build (src/run/field_keys.c).  Returns 0, or a
+ * negative code with err filled ("file:line: [field] key: ..."). */
+int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
+                           struct gcp_error *err);
+
+/* gcp_period_of (the gyro, bounce and drift periods) is a diagnostic:
+ * invariants.h, included here. */
 
 struct gcp_results;
 
@@ -185,4 +202,5 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

@@ -12,6 +12,8 @@
 
 #include "error.h"
 #include "units.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -69,4 +71,5 @@ int gcp_section_check_unused(const struct gcp_section *s, const char *accepted,
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

@@ -36,6 +36,8 @@
 #include "pusher.h"
 #include "run.h"
 #include "units.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -177,4 +179,5 @@ double gcp_exact_uniform_omega(const struct gcp_exact_uniform *ex, const double 
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_SWEEP_H */

@@ -9,6 +9,15 @@
 #define GCPUSH_UNITS_H
 
 #include <stddef.h>
+#include "api.h"
+GCP_API_BEGIN
+
+/* Physical constants of the Earth models (fields/dipole.c, igrf.c; the RE unit). */
+#ifndef GCP_EARTH_RADIUS
+#define GCP_EARTH_RADIUS 6.3712e6    /* R_E [m] (IGRF reference radius) */
+#define GCP_EARTH_B0 3.12e-5         /* equatorial surface dipole field [T] */
+#define GCP_EARTH_OMEGA 7.2921159e-5 /* Earth's sidereal rotation rate [rad/s] */
+#endif
 
 #ifdef __cplusplus
 extern "C" {
@@ -50,4 +59,5 @@ const char *gcp_quantity_name(enum gcp_quantity q);
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif

@@ -150,12 +150,9 @@ static double dot3(const double a[3], const double b[3])
 
 double gcp_observer_reference_B0(const struct gcp_field *f)
 {
-    if (f && f->type == &gcp_field_dipole) {
-        const double x[3] = {GCP_EARTH_RADIUS, 0.0, 0.0};
-        struct gcp_field_sample s = {.need = GCP_NEED_B};
-        if (gcp_field_eval(f, 0.0, x, &s) == 0) return sqrt(dot3(s.B, s.B));
-    }
-    return GCP_EARTH_B0;
+    /* the field's own centred-dipole B0 where it has dipole coordinates */
+    const double B0 = gcp_field_dipole_B0(f);
+    return B0 > 0.0 ? B0 : GCP_EARTH_B0;
 }
 
 int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct gcp_field *f,
@@ -664,7 +661,7 @@ int gcp_dipole_classify(const struct gcp_field *f, double q, double m, const dou
                         double *alpha_lc)
 {
     *L = *alpha_eq = *alpha_lc = NAN;
-    if (!f || f->type != &gcp_field_dipole) return GCP_ERR_STATE;
+    if (!f || !(gcp_field_caps(f) & GCP_CAP_DIPOLE_L)) return GCP_ERR_STATE;
     double X[3], pp = ppar, mm = mu, p2;
     if (u) {
         if (gcp_gc_from_fo(f, 0.0, q, m, x, u, X, &pp, &mm)) return GCP_ERR_STATE;

@@ -21,7 +21,9 @@
 #include <gsl/gsl_integration.h>
 
 #include "gcpush/kernels.h"
-#include "gcpush/run.h"
+#include "gcpush/error.h"
+#include "gcpush/invariants.h"
+#include "gcpush/particles.h"
 
 struct bounce_ctx {
     double y2;   /* sin^2 a_eq */
@@ -127,7 +129,8 @@ int gcp_period_of(const struct gcp_field *f, const char *model, const struct gcp
         *period = 2.0 * GCP_PI * gamma * sp->mass / (fabs(sp->charge) * B);
         return isfinite(*period) && *period > 0 ? 0 : GCP_ERR_STATE;
     }
-    if (strcmp(model, "dipole") != 0 || u2 == 0.0) return GCP_ERR_STATE;
+    (void)model; /* the field's capabilities say it, not its name */
+    if (!(gcp_field_caps(f) & GCP_CAP_DIPOLE_L) || u2 == 0.0) return GCP_ERR_STATE;
     /* Equatorial pitch angle from the local one via mu conservation,
      * sin^2 a_eq = sin^2 a B_eq / B, with the particle mapped along its
      * dipole field line r = L R_E cos^2(lat). */

@@ -9,15 +9,250 @@
  * The adiabaticity check (opts->adiabaticity_max) and B*_par > 0 are tested
  * on k1, i.e. at the start of every step: a lane that fails retires with
  * the state and time of the start of that step.  A field status or a
- * non-finite value at any stage stops the lane after the step (classify). */
+ * non-finite value at any stage stops the lane after the step (classify).
+ *
+ * How it is fast (issue 12).  Each stage is two dense loops over a chunk of
+ * CHUNK lanes whose scratch stays in L1: one block field evaluation with
+ * grad B (need bits fixed once per push) and one loop of the right-hand side
+ * over the struct-of-arrays values (gcp_gc_rhs inlined, has_E decided once
+ * per push by choosing the loop).  No indirect call per lane, no branch on
+ * the stage number inside a lane loop; the status of each lane is computed
+ * with arithmetic selects.  The operations and their order are those of the
+ * scalar path (gcp_gc_eval), so results are bit-identical to it. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "gcpush/gc.h"
+#include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "block_priv.h"
 #include "gc_priv.h"
+
+/* Lanes per chunk: ~30 arrays of CHUNK doubles of stage scratch (24 kB). */
+#define CHUNK 96
+
+/* One chunk's field values and stage state. */
+struct rk4_chunk {
+    double X[CHUNK], Y[CHUNK], Z[CHUNK], P[CHUNK]; /* [m], [kg m/s] stage state */
+    double B[3][CHUNK], G[3][3][CHUNK], E[3][CHUNK];
+    double k[4][CHUNK];   /* stage derivative dX/dt [m/s], dp_par/dt [N] */
+    double acc[4][CHUNK]; /* k1 + 2 k2 + 2 k3 + k4 so far */
+    int32_t fs[CHUNK];    /* the field's status of this stage */
+    int32_t code[CHUNK];  /* this stage's verdict (gcp_gc_eval's) */
+};
+
+/* The guiding-centre right-hand side of kernels.h gcp_gc_rhs (Cary &
+ * Brizard 2009; equations in docs/DESIGN.md), rearranged so that a lane
+ * needs two square roots and one division instead of two and eight (the
+ * divider, not the multipliers, bounds a vectorised loop of gcp_gc_rhs):
+ *   Bm = |B|,  gamma = sqrt(1 + (p_par/mc)^2 + 2 mu Bm/(m c^2)),
+ *   B*_par = b.B* = Bm + (p_par/q) B.curl B / Bm^2,  so with
+ *   S = B*_par Bm^2 = Bm^3 + (p_par/q) B.curl B  and  D = 1/(Bm gamma S):
+ *   1/Bm = gamma S D,  1/gamma = Bm S D,  1/B*_par = Bm^2 Bm gamma D.
+ * Constants (1/q, 1/(mc), 1/m) are reciprocals taken once.  The results
+ * differ from gcp_gc_rhs by round-off (a few ulp per evaluation); the
+ * edge cases keep their verdicts: B = 0 or B*_par = 0 give an infinite D,
+ * hence NaN (NONFINITE, as gcp_gc_rhs's inf/NaN), B*_par < 0 gives S < 0
+ * (NONADIABATIC).  Writes k (dX/dt, dp_par/dt) and the verdict of
+ * gcp_gc_eval without the adiabaticity test: the field's status, else
+ * NONFINITE for a non-finite derivative, else NONADIABATIC where B*_par <= 0
+ * or |B| = 0.  withE is a constant at each call. */
+struct rhs_consts {
+    double iq;  /* [1/C] 1/q */
+    double q;   /* [C] */
+    double imc; /* [s/(kg m)] 1/(m c) */
+    double k2;  /* [1/J] 2/(m c^2), times mu B [J] */
+    double im;  /* [1/kg] 1/m */
+};
+
+/* What to do with the derivative of a stage (constant at each call):
+ * STORE it in c->k with the verdict in c->code (stage 1), or, in stages 2
+ * to 4, ACCumulate w k into c->acc, merge the verdict into the lanes'
+ * fstatus and, but for the last stage, write the NEXT stage's state
+ * y0 + cn k into c->X .. c->P (one pass instead of four). */
+enum { RHS_STORE, RHS_ACC, RHS_ACC_NEXT };
+struct rhs_fuse {
+    double w, cn;                       /* weight of this k in acc; next stage's offset [s] */
+    const double *x0, *y0, *z0, *p0;    /* the step's start state */
+    int32_t *fst;                       /* the lanes' fstatus */
+};
+
+static inline __attribute__((always_inline)) void
+rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
+          const struct rhs_consts *kc, int withE, int mode, const struct rhs_fuse *fu)
+{
+    const double w = fu ? fu->w : 0.0, cn = fu ? fu->cn : 0.0;
+    const double *restrict x0 = fu ? fu->x0 : NULL, *restrict y0 = fu ? fu->y0 : NULL;
+    const double *restrict z0 = fu ? fu->z0 : NULL, *restrict p0 = fu ? fu->p0 : NULL;
+    int32_t *restrict fst = fu ? fu->fst : NULL;
+    const double iq = kc->iq, q = kc->q, imc = kc->imc, k2 = kc->k2, im = kc->im;
+    for (size_t i = 0; i < m; i++) {
+        const double Bx = c->B[0][i], By = c->B[1][i], Bz = c->B[2][i];
+        const double G00 = c->G[0][0][i], G01 = c->G[0][1][i], G02 = c->G[0][2][i];
+        const double G10 = c->G[1][0][i], G11 = c->G[1][1][i], G12 = c->G[1][2][i];
+        const double G20 = c->G[2][0][i], G21 = c->G[2][1][i], G22 = c->G[2][2][i];
+        const double pp = c->P[i], mui = mu[i];
+        const double B2 = Bx * Bx + By * By + Bz * Bz;
+        const double Bm = sqrt(B2);
+        const double a = pp * imc;
+        const double gamma = sqrt(1.0 + a * a + mui * Bm * k2);
+        const double rq = pp * iq;
+        /* curl B and B.curl B */
+        const double cx = G21 - G12, cy = G02 - G20, cz = G10 - G01;
+        const double S = B2 * Bm + rq * (Bx * cx + By * cy + Bz * cz);
+        const double D = 1.0 / (Bm * gamma * S);
+        const double iB = gamma * S * D, ig = Bm * S * D, iBs = B2 * Bm * gamma * D;
+        const double bx = Bx * iB, by = By * iB, bz = Bz * iB;
+        /* grad |B|_j = b_i dB_i/dx_j */
+        const double gx = bx * G00 + by * G10 + bz * G20;
+        const double gy = bx * G01 + by * G11 + bz * G21;
+        const double gz = bx * G02 + by * G12 + bz * G22;
+        const double rqiB = rq * iB;
+        const double Bsx = Bx + rqiB * (cx + (by * gz - bz * gy));
+        const double Bsy = By + rqiB * (cy + (bz * gx - bx * gz));
+        const double Bsz = Bz + rqiB * (cz + (bx * gy - by * gx));
+        const double f = mui * iq * ig;
+        const double Esx = (withE ? c->E[0][i] : 0.0) - f * gx;
+        const double Esy = (withE ? c->E[1][i] : 0.0) - f * gy;
+        const double Esz = (withE ? c->E[2][i] : 0.0) - f * gz;
+        const double vpar = pp * im * ig;
+        const double dX = (vpar * Bsx + (Esy * bz - Esz * by)) * iBs;
+        const double dY = (vpar * Bsy + (Esz * bx - Esx * bz)) * iBs;
+        const double dZ = (vpar * Bsz + (Esx * by - Esy * bx)) * iBs;
+        const double dp = q * (Esx * Bsx + Esy * Bsy + Esz * Bsz) * iBs;
+        const int32_t nonfinite = !(fabs(dX + dY + dZ + dp) <= DBL_MAX);
+        const int32_t bad = !(S > 0.0) | !(B2 > 0.0);
+        const int32_t own = nonfinite * GCP_NONFINITE + (1 - nonfinite) * bad * GCP_NONADIABATIC;
+        const int32_t fs = c->fs[i];
+        const int32_t code = fs + (fs == 0) * own;
+        if (mode == RHS_STORE) {
+            c->k[0][i] = dX, c->k[1][i] = dY, c->k[2][i] = dZ, c->k[3][i] = dp;
+            c->code[i] = code;
+        } else {
+            c->acc[0][i] = c->acc[0][i] + w * dX;
+            c->acc[1][i] = c->acc[1][i] + w * dY;
+            c->acc[2][i] = c->acc[2][i] + w * dZ;
+            c->acc[3][i] = c->acc[3][i] + w * dp;
+            const int32_t s0 = fst[i];
+            fst[i] = s0 + (s0 == 0) * code;
+            if (mode == RHS_ACC_NEXT) {
+                c->X[i] = x0[i] + cn * dX;
+                c->Y[i] = y0[i] + cn * dY;
+                c->Z[i] = z0[i] + cn * dZ;
+                c->P[i] = p0[i] + cn * dp;
+            }
+        }
+    }
+}
+
+/* Field and right-hand side at the chunk's stage state (time t); mode and
+ * fu as in rhs_chunk, each combination with E or without its own loop. */
+static void stage_eval(struct rk4_chunk *c, size_t m, const struct gcp_field *f, double t,
+                       unsigned need, const double *mu, const struct rhs_consts *kc, int mode,
+                       const struct rhs_fuse *fu)
+{
+    const struct gcp_field_soa o = {{c->B[0], c->B[1], c->B[2]},
+                                    {{c->G[0][0], c->G[0][1], c->G[0][2]},
+                                     {c->G[1][0], c->G[1][1], c->G[1][2]},
+                                     {c->G[2][0], c->G[2][1], c->G[2][2]}},
+                                    {c->E[0], c->E[1], c->E[2]}};
+    memset(c->fs, 0, m * sizeof(int32_t));
+    gcp_field_eval_soa(f, t, need, m, c->X, c->Y, c->Z, &o, c->fs);
+    const int E = (need & GCP_NEED_E) != 0;
+    if (mode == RHS_STORE) {
+        if (E) rhs_chunk(c, m, mu, kc, 1, RHS_STORE, NULL);
+        else rhs_chunk(c, m, mu, kc, 0, RHS_STORE, NULL);
+    } else if (mode == RHS_ACC) {
+        if (E) rhs_chunk(c, m, mu, kc, 1, RHS_ACC, fu);
+        else rhs_chunk(c, m, mu, kc, 0, RHS_ACC, fu);
+    } else {
+        if (E) rhs_chunk(c, m, mu, kc, 1, RHS_ACC_NEXT, fu);
+        else rhs_chunk(c, m, mu, kc, 0, RHS_ACC_NEXT, fu);
+    }
+}
+
+/* The adiabaticity test of stage 1 (only when amax > 0): lanes that pass
+ * everything else but exceed amax become NONADIABATIC. */
+static void adiabaticity_chunk(struct rk4_chunk *c, size_t m, const double *mu, double q,
+                               double mass, double amax)
+{
+    for (size_t i = 0; i < m; i++) {
+        if (c->code[i]) continue;
+        struct gcp_field_sample s;
+        for (int a = 0; a < 3; a++) {
+            s.B[a] = c->B[a][i];
+            for (int b = 0; b < 3; b++) s.gradB[a][b] = c->G[a][b][i];
+        }
+        if (!(gcp_gc_adiabaticity_sample(&s, c->P[i], mu[i], q, mass) <= amax))
+            c->code[i] = GCP_NONADIABATIC;
+    }
+}
+
+/* Stage 1 over all n live lanes: k1 into k1[4][N], the verdict into
+ * b->fstatus.  Returns non-zero when any lane failed. */
+static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double *k1,
+                      const struct gcp_field *f, double t, unsigned need, double amax,
+                      const struct rhs_consts *kc)
+{
+    const size_t N = b->n;
+    int32_t any = 0;
+    for (size_t i0 = 0; i0 < n; i0 += CHUNK) {
+        const size_t m = n - i0 < CHUNK ? n - i0 : CHUNK;
+        memcpy(c->X, b->x + i0, m * sizeof(double));
+        memcpy(c->Y, b->y + i0, m * sizeof(double));
+        memcpy(c->Z, b->z + i0, m * sizeof(double));
+        memcpy(c->P, b->ppar + i0, m * sizeof(double));
+        stage_eval(c, m, f, t, need, b->mu + i0, kc, RHS_STORE, NULL);
+        if (amax > 0.0) adiabaticity_chunk(c, m, b->mu + i0, b->q, b->m, amax);
+        for (int d = 0; d < 4; d++) memcpy(k1 + d * N + i0, c->k[d], m * sizeof(double));
+        for (size_t i = 0; i < m; i++) {
+            b->fstatus[i0 + i] = c->code[i];
+            any |= c->code[i];
+        }
+    }
+    return any;
+}
+
+/* Stages 2 to 4 and the update of the chunk of lanes [i0, i0 + m). */
+static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk *c,
+                      const double *k1, const struct gcp_field *f, double t, double h,
+                      unsigned need, const struct rhs_consts *kc)
+{
+    const size_t N = b->n;
+    const double *restrict x = b->x + i0, *restrict y = b->y + i0, *restrict z = b->z + i0;
+    const double *restrict p = b->ppar + i0, *restrict mu = b->mu + i0;
+    const double *restrict k1x = k1 + i0, *restrict k1y = k1 + N + i0;
+    const double *restrict k1z = k1 + 2 * N + i0, *restrict k1p = k1 + 3 * N + i0;
+    const double c2 = 0.5 * h; /* k2's offset */
+    for (size_t i = 0; i < m; i++) {
+        c->acc[0][i] = 0.0 + 1.0 * k1x[i];
+        c->acc[1][i] = 0.0 + 1.0 * k1y[i];
+        c->acc[2][i] = 0.0 + 1.0 * k1z[i];
+        c->acc[3][i] = 0.0 + 1.0 * k1p[i];
+        c->X[i] = x[i] + c2 * k1x[i];
+        c->Y[i] = y[i] + c2 * k1y[i];
+        c->Z[i] = z[i] + c2 * k1z[i];
+        c->P[i] = p[i] + c2 * k1p[i];
+    }
+    /* k2 at t + h/2 (weight 2, next offset h/2), k3 at t + h/2 (2, h), k4 at t + h (1) */
+    struct rhs_fuse fu = {2.0, 0.5 * h, x, y, z, p, b->fstatus + i0};
+    stage_eval(c, m, f, t + 0.5 * h, need, mu, kc, RHS_ACC_NEXT, &fu);
+    fu.cn = 1.0 * h;
+    stage_eval(c, m, f, t + 0.5 * h, need, mu, kc, RHS_ACC_NEXT, &fu);
+    fu.w = 1.0;
+    stage_eval(c, m, f, t + 1.0 * h, need, mu, kc, RHS_ACC, &fu);
+    const double h6 = h / 6.0;
+    double *restrict xo = b->x + i0, *restrict yo = b->y + i0, *restrict zo = b->z + i0;
+    double *restrict po = b->ppar + i0;
+    for (size_t i = 0; i < m; i++) {
+        xo[i] = xo[i] + h6 * c->acc[0][i];
+        yo[i] = yo[i] + h6 * c->acc[1][i];
+        zo[i] = zo[i] + h6 * c->acc[2][i];
+        po[i] = po[i] + h6 * c->acc[3][i];
+    }
+}
 
 static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
                              const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
@@ -27,70 +262,38 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
     size_t n = gcp_gc_block_begin(b, f, o);
     if (n == 0) return 0;
     const size_t N = b->n;
-    /* y0 (4), accumulated increment (4), stage derivative (4) */
-    double *w = malloc(12 * N * sizeof(double));
-    if (!w) {
+    double *k1 = malloc(4 * N * sizeof(double));
+    struct rk4_chunk *c = malloc(sizeof *c);
+    if (!k1 || !c) {
+        free(k1);
+        free(c);
         for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
         b->n_active = gcp_block_retire(b, n, o->t0, 0);
         return b->n_active;
     }
-    double *y0 = w, *acc = w + 4 * N, *kk = w + 8 * N;
-    const double h = o->dt, q = b->q, m = b->m, amax = o->adiabaticity_max;
+    const double h = o->dt, amax = o->adiabaticity_max;
+    const unsigned need = GCP_NEED_B | GCP_NEED_GRADB | (f->has_E ? GCP_NEED_E : 0u);
     const int64_t every = s && s->fn ? s->every : 0;
+    const double mc = b->m * GCP_C_LIGHT;
+    const struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT), 1.0 / b->m};
     int64_t k = 0;
     for (; k < o->nsteps && n > 0; k++) {
         const double t = o->t0 + (double)k * h;
         /* stage 1, with the validity check; stopped lanes leave first */
-        for (;;) {
-            int any = 0;
-            for (size_t i = 0; i < n; i++) {
-                const double X[3] = {b->x[i], b->y[i], b->z[i]};
-                double dX[3], dp;
-                const int st = gcp_gc_eval(f, t, q, m, X, b->ppar[i], b->mu[i], amax, dX, &dp);
-                b->fstatus[i] = st;
-                any |= st;
-                y0[4 * i] = X[0], y0[4 * i + 1] = X[1], y0[4 * i + 2] = X[2];
-                y0[4 * i + 3] = b->ppar[i];
-                for (int d = 0; d < 3; d++) kk[4 * i + d] = dX[d];
-                kk[4 * i + 3] = dp;
-            }
-            if (!any) break;
+        while (stage1(b, n, c, k1, f, t, need, amax, &kc)) {
             if (gcp_block_classify(b, n, f, 1)) n = gcp_block_retire(b, n, t, k);
             b->n_active = n;
         }
         if (n == 0) break;
-        static const double cs[4] = {0.5, 0.5, 1.0, 0.0}; /* next stage offset */
-        static const double ws[4] = {1.0, 2.0, 2.0, 1.0};
-        for (int st = 0; st < 4; st++) {
-            for (size_t i = 0; i < n; i++) {
-                double *a = &acc[4 * i];
-                const double *kd = &kk[4 * i], *y = &y0[4 * i];
-                for (int d = 0; d < 4; d++) a[d] = (st == 0 ? 0.0 : a[d]) + ws[st] * kd[d];
-                if (st == 3) continue;
-                /* state of the next stage */
-                const double c = cs[st] * h;
-                const double X[3] = {y[0] + c * kd[0], y[1] + c * kd[1], y[2] + c * kd[2]};
-                double dX[3], dp;
-                const int fs = gcp_gc_eval(f, t + c, q, m, X, y[3] + c * kd[3], b->mu[i], 0.0, dX, &dp);
-                if (!b->fstatus[i]) b->fstatus[i] = fs;
-                double *kn = &kk[4 * i];
-                kn[0] = dX[0], kn[1] = dX[1], kn[2] = dX[2], kn[3] = dp;
-            }
-        }
-        const double h6 = h / 6.0;
-        for (size_t i = 0; i < n; i++) {
-            const double *y = &y0[4 * i], *a = &acc[4 * i];
-            b->x[i] = y[0] + h6 * a[0];
-            b->y[i] = y[1] + h6 * a[1];
-            b->z[i] = y[2] + h6 * a[2];
-            b->ppar[i] = y[3] + h6 * a[3];
-        }
+        for (size_t i0 = 0; i0 < n; i0 += CHUNK)
+            stages234(b, i0, n - i0 < CHUNK ? n - i0 : CHUNK, c, k1, f, t, h, need, &kc);
         if (gcp_block_classify(b, n, f, 1)) n = gcp_block_retire(b, n, t + h, k + 1);
         b->n_active = n;
         if (every && (k + 1) % every == 0) s->fn(b, t + h, s->ctx);
     }
     gcp_block_finish(b, n, o->t0 + (double)k * h, k);
-    free(w);
+    free(k1);
+    free(c);
     return n;
 }
 

@@ -1,12 +1,79 @@
 /* `gcpush grid FILE.run`: sample a field model onto a grid file.
  * The run file names the source in [scene] field and [field], the grid in
  * [grid] (gcp_grid_spec_from_section); any other section is an error. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "gcpush/grid.h"
 #include "gcpush/run.h"
+#include "gcpush/section.h"
 #include "run_priv.h"
+
+/* ---- [grid] section (moved from fields/grid_io.c: the run layer reads run files) ---- */
+
+static int count_key(struct gcp_section *sec, const char *key, size_t *n, struct gcp_error *err)
+{
+    double v;
+    int rc = gcp_section_quantity(sec, key, GCP_Q_NUMBER, 1, &v, err);
+    if (rc < 0) return rc;
+    if (!(v >= 5 && v <= 1e8 && v == floor(v)))
+        return gcp_section_error(sec, key, err, GCP_ERR_VALUE,
+                                 "expected a whole number of nodes >= 5, got %g", v);
+    *n = (size_t)v;
+    return 0;
+}
+
+int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *spec, char *path,
+                               size_t pathlen, struct gcp_error *err)
+{
+    char geom[32];
+    int rc;
+    memset(spec, 0, sizeof *spec);
+    if ((rc = gcp_section_string(sec, "geometry", 1, geom, sizeof geom, err)) < 0) return rc;
+    if ((rc = gcp_section_string(sec, "file", 1, path, pathlen, err)) < 0) return rc;
+    static const char *const axi_keys[2][3] = {{"R_min", "Z_min", NULL}, {"R_max", "Z_max", NULL}};
+    static const char *const axi_n[3] = {"nR", "nZ", NULL};
+    static const char *const car_keys[2][3] = {{"x_min", "y_min", "z_min"},
+                                               {"x_max", "y_max", "z_max"}};
+    static const char *const car_n[3] = {"nx", "ny", "nz"};
+    const char *const(*keys)[3];
+    const char *const *nk;
+    int nd;
+    if (strcmp(geom, "axisymmetric") == 0) {
+        spec->geometry = GCP_GRID_AXISYMMETRIC;
+        keys = axi_keys, nk = axi_n, nd = 2;
+    } else if (strcmp(geom, "cartesian") == 0) {
+        spec->geometry = GCP_GRID_CARTESIAN;
+        keys = car_keys, nk = car_n, nd = 3;
+    } else {
+        return gcp_section_error(sec, "geometry", err, GCP_ERR_VALUE,
+                                 "expected axisymmetric or cartesian, got '%s'", geom);
+    }
+    for (int k = 0; k < nd; k++) {
+        if ((rc = gcp_section_quantity(sec, keys[0][k], GCP_Q_LENGTH, 1, &spec->lo[k], err)) < 0)
+            return rc;
+        if ((rc = gcp_section_quantity(sec, keys[1][k], GCP_Q_LENGTH, 1, &spec->hi[k], err)) < 0)
+            return rc;
+        if ((rc = count_key(sec, nk[k], &spec->n[k], err)) < 0) return rc;
+        if (!(spec->hi[k] > spec->lo[k]))
+            return gcp_section_error(sec, keys[1][k], err, GCP_ERR_VALUE,
+                                     "must exceed %s = %g m, got %g m", keys[0][k], spec->lo[k],
+                                     spec->hi[k]);
+    }
+    if (nd == 2 && spec->lo[0] < 0.0)
+        return gcp_section_error(sec, "R_min", err, GCP_ERR_VALUE, "must be >= 0, got %g m",
+                                 spec->lo[0]);
+    double t = 0.0;
+    if ((rc = gcp_section_quantity(sec, "time", GCP_Q_TIME, 0, &t, err)) < 0) return rc;
+    spec->t = t;
+    rc = gcp_section_check_unused(
+        sec,
+        nd == 2 ? "geometry file R_min R_max nR Z_min Z_max nZ time"
+                : "geometry file x_min x_max nx y_min y_max ny z_min z_max nz time",
+        err);
+    return rc < 0 ? rc : 0;
+}
 
 int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err)
 {

@@ -173,7 +173,8 @@ static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct g
         return gcp_section_error(s, hasL ? "L" : "position", err, hasL ? GCP_ERR_VALUE : GCP_ERR_MISSING,
                                  "give exactly one of L (dipole shells) or position");
     if (hasL) {
-        if (strcmp(sc->field_model, "dipole") != 0)
+        const struct gcp_field_type *ft = gcp_field_type_lookup(sc->field_model);
+        if (!ft || !(ft->caps & GCP_CAP_DIPOLE_L))
             return gcp_section_error(s, "L", err, GCP_ERR_VALUE,
                                      "L shells need field = dipole (use position otherwise)");
         if (!(p->L.lo > 1.0))
@@ -455,10 +456,11 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
      * keys optional, like the dipole, need none). */
     struct gcp_section empty = {.file = rf->path, .name = "field"};
     struct gcp_section *fs = gcp_run_file_section(rf, "field");
+    char names[256];
     if (!gcp_field_type_lookup(sc->field_model))
         return gcp_section_error(s, "field", err, GCP_ERR_UNKNOWN,
-                                 "unknown field model '%s' (uniform, mirror, dipole, tokamak)",
-                                 sc->field_model);
+                                 "unknown field model '%s' (%s)", sc->field_model,
+                                 gcp_field_model_names(names, sizeof names));
     if ((rc = gcp_field_from_section(sc->field_model, fs ? fs : &empty, &sc->field, err)) < 0)
         return rc;
 

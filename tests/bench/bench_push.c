@@ -468,8 +468,90 @@ static void part_gc(void)
     gcp_field_free(f);
 }
 
+/* ---------------------------------------------------------------------------
+ * Issue 12: the pushers against ../shared/limit's kernels (b) and (c), the
+ * same scene: 1 MeV protons on the equator at L = 3.5 .. 4.5, equatorial
+ * pitch 30 .. 80 deg, resident block.  (b): relativistic Boris, Omega_eq(L=4)
+ * dt = 0.05.  (c): gc-rk4, dt = Tb(L=4, 45 deg)/1000 with the dipole bounce
+ * period Tb = 4 L R_E / v (1.30 - 0.56 sin a) (Hamlin et al. 1961 fit).
+ * Prints ns per particle-step; tests/bench/vs_limit.sh divides by the
+ * limit kernels measured in the same `make bench`.
+ * ------------------------------------------------------------------------- */
+static void init_limit_scene(struct gcp_block *b, size_t nb, int gc, double *dt)
+{
+    rng = 0x13198A2E03707344ull;
+    const double ek = 1.602176634e-13, mc2 = MP * GCP_C_LIGHT * GCP_C_LIGHT;
+    const double g = 1.0 + ek / mc2, p = MP * GCP_C_LIGHT * sqrt(g * g - 1.0);
+    for (size_t i = 0; i < nb; i++) {
+        const double L = 3.5 + urand(), lon = 2.0 * GCP_PI * urand();
+        const double a = (30.0 + 50.0 * urand()) * GCP_PI / 180.0, ph = 2.0 * GCP_PI * urand();
+        b->x[i] = L * RE * cos(lon), b->y[i] = L * RE * sin(lon), b->z[i] = 0.0;
+        const double Beq = GCP_EARTH_B0 / (L * L * L);
+        if (gc) {
+            b->ppar[i] = p * cos(a); /* B along +z at the equator */
+            b->mu[i] = (p * sin(a)) * (p * sin(a)) / (2.0 * MP * Beq);
+        } else {
+            const double u = p / MP;
+            b->ux[i] = u * sin(a) * cos(ph), b->uy[i] = u * sin(a) * sin(ph);
+            b->uz[i] = u * cos(a);
+        }
+        b->status[i] = 0, b->steps[i] = 0, b->index[i] = i, b->t[i] = 0.0;
+    }
+    b->n_active = nb;
+    const double v = p / (g * MP), L4 = 4.0 * RE;
+    *dt = gc ? 4.0 * L4 / v * (1.30 - 0.56 * sin(GCP_PI / 4.0)) / 1000.0
+             : 0.05 * g * MP / (QP * GCP_EARTH_B0 / 64.0);
+}
+
+static double limit_scene(int gc, size_t nb, double total_steps)
+{
+    struct gcp_field *f = gcp_field_dipole_create(GCP_EARTH_B0, 0, RE + 100e3, 15.0 * RE);
+    struct gcp_block b;
+    if (!f || gcp_block_alloc(&b, nb)) exit(1);
+    b.q = QP, b.m = MP;
+    /* Many short repetitions (tens of ms), best of them, as limit_bench
+     * does: on a shared machine a short one is more likely to run alone. */
+    const int reps = (int)fmax(3.0, 30.0 * fmin(scale, 1.0));
+    const int64_t nsteps = (int64_t)fmax(1.0, total_steps / (double)nb);
+    double best = INFINITY, dt;
+    for (int rep = 0; rep < reps; rep++) {
+        init_limit_scene(&b, nb, gc, &dt);
+        size_t live;
+        const double t0 = now();
+        if (gc) {
+            const struct gcp_push_opts o = {0.0, dt, nsteps, 0.0, 0.0};
+            live = gcp_pusher_gc_rk4.advance(&b, f, &gcp_pusher_gc_rk4, &o, NULL);
+        } else {
+            gcp_block_start(&b, f, 0.0);
+            live = gcp_block_advance_fo(&b, f, &gcp_pusher_boris, 0.0, dt, nsteps, NULL);
+        }
+        const double t1 = now();
+        if (live != nb) fprintf(stderr, "bench_push: %zu of %zu lanes stopped\n", nb - live, nb);
+        best = fmin(best, 1e9 * (t1 - t0) / ((double)nb * (double)nsteps));
+    }
+    sink = b.x[0];
+    gcp_block_free(&b);
+    gcp_field_free(f);
+    return best;
+}
+
+static void limit_rows(void)
+{
+    const size_t nbs[] = {1024, 8192};
+    for (size_t k = 0; k < 2; k++) {
+        printf("limit-row boris-dipole %zu %.3f\n", nbs[k], limit_scene(0, nbs[k], 1e7));
+        printf("limit-row gc-rk4-dipole %zu %.3f\n", nbs[k], limit_scene(1, nbs[k], 1e6));
+    }
+}
+
 int main(int argc, char **argv)
 {
+    if (argc > 1 && strcmp(argv[1], "limit") == 0) {
+        if (argc > 2) scale = atof(argv[2]);
+        if (!(scale > 0.0)) scale = 1.0;
+        limit_rows();
+        return 0;
+    }
     if (argc > 1) scale = atof(argv[1]);
     if (!(scale > 0.0)) scale = 1.0;
     printf("gcpush bench: single core, best of %d, wall clock (scale %g)\n\n", REPS, scale);

@@ -43,6 +43,7 @@
 #include "gcpush/error.h"
 #include "gcpush/field.h"
 #include "gcpush/particles.h"
+#include "gcpush/run.h" /* gcp_field_from_section: the run layer reads [field] */
 #include "gcpush/section.h"
 
 #define TOL_FD 1e-7
@@ -112,6 +113,63 @@ static void check_gradient(const struct gcp_field *f, const double x[3], double 
 
 /* (T4): eval_block (with and without E, with status) against eval. */
 #define NB 37 /* not a multiple of any vector width: exercises the loop tails */
+
+/* (T4b, issue 12): the block evaluation with need bits, grad B included,
+ * against eval point by point, bit for bit (both are the same expressions
+ * in the same order; the build keeps -ffp-contract=off), for every need
+ * combination, with and without a status array, through the model's own
+ * eval_soa where it has one and through the generic one.  Arrays the need
+ * bits do not ask for must stay untouched (filled with a marker). */
+static void check_soa(const struct gcp_field *f, const double *x, const double *y,
+                      const double *z, double pts[NB][3])
+{
+    static const unsigned needs[] = {GCP_NEED_B, GCP_NEED_B | GCP_NEED_GRADB,
+                                     GCP_NEED_B | GCP_NEED_E,
+                                     GCP_NEED_B | GCP_NEED_GRADB | GCP_NEED_E};
+    static double B[3][NB], G[3][3][NB], E[3][NB];
+    int32_t st[NB];
+    for (int generic = 0; generic < 2; generic++)
+        for (size_t k = 0; k < sizeof needs / sizeof needs[0]; k++) {
+            const unsigned need = needs[k];
+            struct gcp_field_soa o;
+            for (int a = 0; a < 3; a++) {
+                o.B[a] = B[a], o.E[a] = E[a];
+                for (int c = 0; c < 3; c++) o.G[a][c] = G[a][c];
+                for (int i = 0; i < NB; i++) {
+                    B[a][i] = E[a][i] = -7.0;
+                    for (int c = 0; c < 3; c++) G[a][c][i] = -7.0;
+                }
+            }
+            for (int i = 0; i < NB; i++) st[i] = 0;
+            if (generic)
+                gcp_field_eval_soa_generic(f, 0.0, need, NB, x, y, z, &o, st);
+            else
+                gcp_field_eval_soa(f, 0.0, need, NB, x, y, z, &o, st);
+            for (int i = 0; i < NB; i++) {
+                struct gcp_field_sample s;
+                memset(&s, 0, sizeof s);
+                s.need = need;
+                const int rc = gcp_field_eval(f, 0.0, pts[i], &s);
+                cr_assert_eq(st[i], rc, "%s soa(need %u): status[%d] = %d, eval %d",
+                             f->type->name, need, i, st[i], rc);
+                for (int a = 0; a < 3; a++) {
+                    cr_assert(memcmp(&B[a][i], &s.B[a], sizeof(double)) == 0,
+                              "%s soa(need %u): B%d[%d] = %.17g, eval %.17g", f->type->name,
+                              need, a, i, B[a][i], s.B[a]);
+                    const double e = need & GCP_NEED_E ? s.E[a] : -7.0;
+                    cr_assert(memcmp(&E[a][i], &e, sizeof(double)) == 0,
+                              "%s soa(need %u): E%d[%d] = %.17g, expected %.17g", f->type->name,
+                              need, a, i, E[a][i], e);
+                    for (int c = 0; c < 3; c++) {
+                        const double g = need & GCP_NEED_GRADB ? s.gradB[a][c] : -7.0;
+                        cr_assert(memcmp(&G[a][c][i], &g, sizeof(double)) == 0,
+                                  "%s soa(need %u): dB%d/dx%d[%d] = %.17g, expected %.17g",
+                                  f->type->name, need, a, c, i, G[a][c][i], g);
+                    }
+                }
+            }
+        }
+}
 static void check_block(const struct gcp_field *f, double pts[NB][3])
 {
     double x[NB], y[NB], z[NB], B[3][NB], E[3][NB], B2[3][NB];
@@ -143,6 +201,7 @@ static void check_block(const struct gcp_field *f, double pts[NB][3])
         cr_assert_eq(st[i], rc, "%s: block status[%d] = %d, eval %d", f->type->name, i, st[i],
                      rc);
     }
+    check_soa(f, x, y, z, pts);
 }
 
 /* ---- uniform -------------------------------------------------------------- */

@@ -40,6 +40,8 @@
 #include "gcpush/grid.h"
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
+#include "gcpush/run.h" /* gcp_grid_spec_from_section (run layer) */
+#include "gcpush/section.h"
 
 #define TOL_POLY 1e-12
 #define TOL_FD 1e-6
