@@ -54,6 +54,8 @@
 
 #include "field.h"
 #include "pusher.h"
+#include "api.h"
+GCP_API_BEGIN
 
 #ifdef __cplusplus
 extern "C" {
@@ -144,4 +146,5 @@ double gcp_hybrid_phase(uint64_t seed, int64_t id, int64_t n);
 #ifdef __cplusplus
 }
 #endif
+GCP_API_END
 #endif /* GCPUSH_HYBRID_H */

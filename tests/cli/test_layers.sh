@@ -2,7 +2,7 @@
 # The layers of docs/DESIGN.md kept true (issue 12):
 #   0 base + kernels  include/gcpush/{api,error,units,particles,kernels}.h, src/{error,units,particles}.c
 #   1 fields          fields/, include/gcpush/{field,grid}.h
-#   2 pushers         src/pushers/, include/gcpush/{pusher,gc}.h
+#   2 pushers         src/pushers/, include/gcpush/{pusher,gc,hybrid}.h
 #   3 diagnostics     src/diag/, include/gcpush/invariants.h
 #   4 run             src/run/, include/gcpush/{run,section,sweep}.h
 #   5 io / par / CLI  src/io/, src/par/, src/gcpush.c, include/gcpush/{io,gcpush}.h
@@ -27,6 +27,7 @@ say() { echo "test_layers: $*" >&2; fail=1; }
 # writing HDF5 grid files (to move to the io layer, issue 12 step 2); the
 # driver filling the I/O layer's gcp_results (io.h: issue 12's "one driver").
 KNOWN="src/run/driver.c->gcpush/io.h
+src/run/driver_hybrid.c->gcpush/io.h
 fields/grid_io.c->hdf5.h"
 
 layer_of() { # path (repo-relative) -> layer number, or empty when not layered
@@ -34,7 +35,7 @@ layer_of() { # path (repo-relative) -> layer number, or empty when not layered
     include/gcpush/api.h | include/gcpush/error.h | include/gcpush/units.h | include/gcpush/particles.h | \
         include/gcpush/kernels.h | src/error.c | src/units.c | src/particles.c) echo 0 ;;
     include/gcpush/field.h | include/gcpush/grid.h | fields/*) echo 1 ;;
-    include/gcpush/pusher.h | include/gcpush/gc.h | src/pushers/*) echo 2 ;;
+    include/gcpush/pusher.h | include/gcpush/gc.h | include/gcpush/hybrid.h | src/pushers/*) echo 2 ;;
     include/gcpush/invariants.h | src/diag/*) echo 3 ;;
     include/gcpush/run.h | include/gcpush/section.h | include/gcpush/sweep.h | src/run/*) echo 4 ;;
     include/gcpush/io.h | include/gcpush/gcpush.h | src/io/* | src/par/* | src/gcpush.c) echo 5 ;;
