@@ -209,9 +209,12 @@ static void write_rows_dcpl(struct writer *w, hid_t loc, const char *name, hid_t
     /* every rank calls H5Dwrite (collective), with a dummy buffer if the
      * move failed: w->bad then fails the whole file */
     static const char dummy[64];
+    /* a rank with no rows has no buffer (NULL data) and nothing to write; a
+     * NULL buffer with rows is a failed move (already counted above) */
     if (!data) {
         H5Sselect_none(fspace);
         H5Sselect_none(mspace);
+        if (nrows == 0 && !w->spread) data = dummy;
     }
     /* one contiguous block per rank: independent writes, one pwrite each,
      * without the two-phase exchange of a collective write; chunked

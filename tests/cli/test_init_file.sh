@@ -104,10 +104,10 @@ for case in "boris 2 us 1e-13" "gc-rk4 1 ms 1e-13" "gc-midpoint-pphi 1 ms 1e-12"
     scene "$m" "$dt" "100 ms" A.h5 > A.run
     scene "$m" "$dt" "50 ms" B.h5 > B.run
     scene "$m" "$dt" "50 ms" C.h5 $m-p.h5 $m-e.h5 > C.run
-    "$GCPUSH" --quiet A.run || die "$m: run A failed"
-    "$GCPUSH" --quiet B.run || die "$m: run B failed"
+    "$GCPUSH" --quiet --force A.run || die "$m: run A failed"
+    "$GCPUSH" --quiet --force B.run || die "$m: run B failed"
     to_init B.h5 $m-p.h5 $m-e.h5
-    "$GCPUSH" --quiet C.run || die "$m: run C failed"
+    "$GCPUSH" --quiet --force C.run || die "$m: run C failed"
     compare A.h5 C.h5 "$tol" "$m"
 done
 
@@ -129,9 +129,9 @@ PY
 # 2 pi gamma m / (|q| B(X)) of each population, gamma from ppar and mu,
 # B of the dipole B0 R_E^3 / r^3 sqrt(1 + 3 sin^2 lat) computed here
 scene gc-rk4 "0.5 gyro" "0.5 s" G.h5 gc-midpoint-pphi-p.h5 gc-midpoint-pphi-e.h5 > G.run
-"$GCPUSH" --quiet G.run || die "gyro-step run failed"
+"$GCPUSH" --quiet --force G.run || die "gyro-step run failed"
 mv G.h5 G1.h5
-$MPIRUN -np 3 "$GCPUSH" --quiet G.run || die "gyro-step run on 3 ranks failed"
+$MPIRUN -np 3 "$GCPUSH" --quiet --force G.run || die "gyro-step run on 3 ranks failed"
 h5diff G1.h5 G.h5 /particles /particles > diff.txt 2>&1 || die "given guiding centres: 1 and 3 ranks differ: $(head -5 diff.txt)"
 "$PY" - <<'PY' || die "gyro step of given guiding centres"
 import h5py, numpy as np
@@ -156,8 +156,8 @@ PY
 for m in boris gc-rk4 gc-midpoint-pphi; do
     scene $m "1 ms" "1 ms" one.h5 $m-p.h5 $m-e.h5 > one.run
     scene $m "1 ms" "2.5 ms" frac.h5 $m-p.h5 $m-e.h5 > frac.run
-    "$GCPUSH" --quiet one.run || die "$m: one-step run failed"
-    "$GCPUSH" --quiet frac.run || die "$m: 2.5-step run failed"
+    "$GCPUSH" --quiet --force one.run || die "$m: one-step run failed"
+    "$GCPUSH" --quiet --force frac.run || die "$m: 2.5-step run failed"
     "$GCPUSH" --check one.run | grep -q "1 steps of 0.001 s" || die "$m: --check: $("$GCPUSH" --check one.run)"
     "$PY" - $m <<'PY' || die "$m: steps"
 import sys, h5py, numpy as np
@@ -197,12 +197,12 @@ ens "count = 640
 energy = 0.1 MeV .. 1 MeV log
 L = 2 .. 5
 pitch = isotropic" "20 ms" D.h5 > D.run
-"$GCPUSH" --quiet D.run || die "run D failed"
+"$GCPUSH" --quiet --force D.run || die "run D failed"
 ens "file = D.h5" "20 ms" E.h5 > E.run
-"$GCPUSH" --quiet E.run || die "run E failed"
-$MPIRUN -np 3 "$GCPUSH" --quiet E.run || die "run E on 3 ranks failed"
+"$GCPUSH" --quiet --force E.run || die "run E failed"
+$MPIRUN -np 3 "$GCPUSH" --quiet --force E.run || die "run E on 3 ranks failed"
 mv E.h5 E3.h5
-"$GCPUSH" --quiet E.run || die "run E failed"
+"$GCPUSH" --quiet --force E.run || die "run E failed"
 for g in /particles; do
     h5diff D.h5 E.h5 $g $g > diff.txt 2>&1 || die "D and E differ in $g: $(head -5 diff.txt)"
     h5diff E.h5 E3.h5 $g $g > diff.txt 2>&1 || die "1 and 3 ranks differ in $g: $(head -5 diff.txt)"
@@ -226,9 +226,9 @@ start=$(date +%s%N)
 "$GCPUSH" --check ref.run > /dev/null || die "reference run file refused"
 boot=$(( ($(date +%s%N) - start) / 1000000 ))
 start=$(date +%s%N)
-"$GCPUSH" --quiet ref.run || die "reference run failed"
+"$GCPUSH" --quiet --force ref.run || die "reference run failed"
 took=$(( ($(date +%s%N) - start) / 1000000 ))
-"$GCPUSH" --quiet sub/R.run 2> term.txt & pid=$!
+"$GCPUSH" --quiet --force sub/R.run 2> term.txt & pid=$!
 sleep "$(awk -v t="$took" -v b="$boot" 'BEGIN { print (b + (t - b) * 0.5) / 1000 }')"
 kill -TERM $pid; wait $pid; rc=$?
 [ $rc = 3 ] || die "SIGTERM halfway through the run (${took} ms, ${boot} ms to start): exit status $rc, not 3"
@@ -264,7 +264,7 @@ with h5py.File('D.h5') as f, h5py.File('nan.h5', 'w') as g:
     g['particles/initial/x'] = x; g['particles/initial/u'] = f['particles/initial/u'][:5]
 "
 ens "file = nan.h5" "20 ms" N.h5 > N.run
-"$GCPUSH" --quiet N.run 2> nan.txt || die "a run with a NaN row failed: $(cat nan.txt)"
+"$GCPUSH" --quiet --force N.run 2> nan.txt || die "a run with a NaN row failed: $(cat nan.txt)"
 grep -q "warning: nan.h5: 1 of its 5 initial states are not finite" nan.txt || die "no warning: $(cat nan.txt)"
 "$PY" -c "
 import h5py
