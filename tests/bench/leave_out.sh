@@ -53,7 +53,7 @@ RUN
 cpu_of() { # run file -> best of 3 push CPU seconds
     best=""
     for i in 1 2 3; do
-        "$GCPUSH" --quiet "$1" > /dev/null 2> "$TMP/err" || { echo "n/a"; return; }
+        "$GCPUSH" --quiet --force "$1" > /dev/null 2> "$TMP/err" || { echo "n/a"; return; }
         c=$("$PY" -c "import h5py; print(float(h5py.File('$TMP/out.h5','r')['timing/rank_cpu_seconds'][()].sum()))")
         best=$("$PY" -c "print(min(float('$c'), float('${best:-1e300}')))")
         "$PY" -c "import sys; sys.exit(0 if $c < 1.0 else 1)" || break   # long runs: once
