@@ -82,6 +82,19 @@ good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = corrupt.h5/
 expect corrupt-grid "case.run:8: \[field\] file: corrupt.h5: not an HDF5 file"
 good | sed 's/^field    = uniform/field    = eqdsk/; s/^B = .*/file = corrupt.h5/' > case.run
 expect corrupt-eqdsk "case.run:8: \[field\] file: corrupt.h5:1: expected 48 characters"
+# a grid file whose origin is NaN: named as the origin, not as a spacing error
+"$PY" - <<'PY' || die "making nan-origin.h5"
+import h5py, numpy as np
+with h5py.File("nan-origin.h5", "w") as f:
+    f.attrs["geometry"] = "axisymmetric"
+    f.attrs["origin"] = [1.0, float("nan")]
+    f.attrs["spacing"] = [0.1, 0.1]
+    f["Bphi"] = np.ones((11, 11))
+    f["BR"] = np.zeros((11, 11))
+    f["BZ"] = np.zeros((11, 11))
+PY
+good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = nan-origin.h5/' > case.run
+expect nan-grid-origin "case.run:8: \[field\] file: nan-origin.h5: attribute /origin\[1\] = nan (axis Z): not finite"
 "$GCPUSH" missing.run > /dev/null 2> stderr.txt && die "missing file: exit 0"
 grep -q "missing.run: cannot open" stderr.txt || die "missing file: $(cat stderr.txt)"
 "$GCPUSH" --frobnicate > /dev/null 2>&1 && die "unknown option: exit 0"
