@@ -95,6 +95,11 @@ with h5py.File("nan-origin.h5", "w") as f:
 PY
 good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = nan-origin.h5/' > case.run
 expect nan-grid-origin "case.run:8: \[field\] file: nan-origin.h5: attribute /origin\[1\] = nan (axis Z): not finite"
+# an IGRF table with a row left out (its coefficient would be taken as 0):
+# refused, naming the table, the file key's line and the missing (n, m)
+grep -v '^h  3  2 ' "$DATA/igrf14coeffs.txt" > igrf-holed.txt
+good | sed 's/^field    = uniform/field    = igrf/; s/^B = .*/file = igrf-holed.txt\nepoch = 2020/; s/^position .*/position = 4 0 0 RE/' > case.run
+expect igrf-missing-row "case.run:8: \[field\] file: igrf-holed.txt: row h 3 2 (degree n = 3, order m = 2) is missing"
 "$GCPUSH" missing.run > /dev/null 2> stderr.txt && die "missing file: exit 0"
 grep -q "missing.run: cannot open" stderr.txt || die "missing file: $(cat stderr.txt)"
 "$GCPUSH" --frobnicate > /dev/null 2>&1 && die "unknown option: exit 0"
