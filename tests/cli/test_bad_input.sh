@@ -63,6 +63,17 @@ good | sed 's/^dt .*/dt = -1 s/' > case.run;              expect negative-dt '\[
 good | sed 's/^position .*/position = nan 0 0 m/' > case.run; expect nan-position '\[particles\] position: a component is not a finite number'
 good | sed 's/^energy .*/energy = nan MeV/' > case.run;   expect nan-energy '\[particles\] energy: value is not a finite number'
 good | sed 's/^energy .*/energy = 0 MeV/' > case.run;     expect zero-energy '\[particles\] energy: kinetic energy must be > 0'
+# a start the run cannot carry is the key's fault, not dt's or duration's:
+# inside the dipole's atmosphere (it would precipitate at step 0), and an
+# energy whose momentum overflows a double
+good | sed 's/^field    = uniform/field    = dipole/; /^B = /d' > case.run
+expect position-in-earth "case.run:13: \[particles\] position: r = 0 m is inside the atmosphere of field 'dipole' (r < r_inner = 6.4712e+06 m = R_E + 100 km): the particle would precipitate at once"
+rc=0; "$GCPUSH" --check case.run > /dev/null 2>&1 || rc=$?
+[ "$rc" = 2 ] || die "position-in-earth --check: exit status $rc, want 2"
+good | sed 's/^energy .*/energy = 1e300 eV/' > case.run
+expect huge-energy "case.run:13: \[particles\] energy: 1e+300 eV is beyond what double precision can carry for a proton"
+good | sed 's/^energy .*/energy = 1e300 eV/; s/^dt .*/dt = 1 ms/; s/^duration .*/duration = 1 s/' > case.run
+expect huge-energy-seconds "case.run:13: \[particles\] energy: 1e+300 eV is beyond what double precision"
 good | sed 's/^species .*/species = muon/' > case.run;    expect unknown-species "unknown species 'muon'"
 good | sed 's/^method .*/method = leapfrog/' > case.run;  expect unknown-method "unknown method 'leapfrog'"
 good | sed 's/^field .*/field = quadrupole/' > case.run;  expect unknown-field "unknown field model 'quadrupole'"
