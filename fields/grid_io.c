@@ -277,8 +277,17 @@ int gcp_grid_read(const char *path, struct gcp_grid_data *d, struct gcp_error *e
             goto out;
         }
     }
+    /* origin and spacing are checked apart: a NaN origin reported as a
+     * spacing error sends the user to the wrong attribute */
     for (int k = 0; k < nd; k++)
-        if (!(d->spacing[k] > 0.0 && isfinite(d->spacing[k]) && isfinite(d->origin[k]))) {
+        if (!isfinite(d->origin[k])) {
+            rc = gcp_error_set(err, GCP_ERR_VALUE,
+                               "%s: attribute /origin[%d] = %g (axis %s): not finite", path, k,
+                               d->origin[k], ax[k]);
+            goto out;
+        }
+    for (int k = 0; k < nd; k++)
+        if (!(d->spacing[k] > 0.0 && isfinite(d->spacing[k]))) {
             rc = gcp_error_set(err, GCP_ERR_VALUE,
                                "%s: attribute /spacing[%d] = %g (axis %s): must be positive and "
                                "finite",

@@ -62,10 +62,18 @@ struct igrf_params {
 
 /* ---- the coefficient table ------------------------------------------------ */
 
-int gcp_igrf_coeffs_at(const char *path, double epoch, struct gcp_igrf_coeffs *c,
-                       struct gcp_error *err)
+/* *epoch_bad is set when the table is fine but the epoch is outside it, so
+ * the caller can blame the epoch key and not the file key */
+static int igrf_read(const char *path, double epoch, struct gcp_igrf_coeffs *c,
+                     struct gcp_error *err, int *epoch_bad)
 {
     memset(c, 0, sizeof *c);
+    *epoch_bad = 0;
+    /* rows seen, [0] g, [1] h: a row left out would otherwise be taken as a
+     * zero coefficient and give a quietly wrong field */
+    static const char gh[2] = {'g', 'h'};
+    unsigned char seen[2][NMAX + 1][NMAX + 1];
+    memset(seen, 0, sizeof seen);
     FILE *fp = fopen(path, "r");
     if (!fp) return gcp_error_set(err, GCP_ERR_IO, "%s: cannot open IGRF coefficient file", path);
     char line[4096];
@@ -105,6 +113,7 @@ int gcp_igrf_coeffs_at(const char *path, double epoch, struct gcp_igrf_coeffs *c
                                    "(definitive/IGRF epochs %.1f .. %.1f, secular variation "
                                    "up to 5 years after)",
                                    path, epoch, first, last + 5.0, first, last);
+                *epoch_bad = 1;
                 goto out;
             }
             if (epoch >= last) {
@@ -151,6 +160,7 @@ int gcp_igrf_coeffs_at(const char *path, double epoch, struct gcp_igrf_coeffs *c
             c->h[n][m] = val;
         else
             c->g[n][m] = val;
+        seen[is_h][n][m] = 1;
         if (n > nmax) nmax = (int)n;
         rows++;
     }
@@ -159,12 +169,29 @@ int gcp_igrf_coeffs_at(const char *path, double epoch, struct gcp_igrf_coeffs *c
                            "%s: no 'g/h n m <epochs>' header or no coefficient rows (an IGRF "
                            "coefficient table?)",
                            path);
+    /* every g n m (m = 0 .. n) and h n m (m = 1 .. n) up to the table's
+     * degree; h n 0 does not exist (sin 0 = 0) */
+    for (int n = 1; n <= nmax && !rc; n++)
+        for (int m = 0; m <= n && !rc; m++)
+            for (int k = 0; k < 2 && !rc; k++)
+                if (!(k == 1 && m == 0) && !seen[k][n][m])
+                    rc = gcp_error_set(err, GCP_ERR_VALUE,
+                                       "%s: row %c %d %d (degree n = %d, order m = %d) is missing "
+                                       "(the table goes to degree %d)",
+                                       path, gh[k], n, m, n, m, nmax);
 out:
     fclose(fp);
     if (rc) return rc;
     c->nmax = nmax;
     c->epoch = epoch;
     return 0;
+}
+
+int gcp_igrf_coeffs_at(const char *path, double epoch, struct gcp_igrf_coeffs *c,
+                       struct gcp_error *err)
+{
+    int epoch_bad;
+    return igrf_read(path, epoch, c, err, &epoch_bad);
 }
 
 /* ---- evaluation ------------------------------------------------------------- */
@@ -333,10 +360,11 @@ static int igrf_build(struct gcp_field_args *a, struct gcp_field **out, struct g
                                    r_inner, r_outer);
     struct gcp_igrf_coeffs c;
     struct gcp_error e2 = {0, ""};
-    int rc;
-    if ((rc = gcp_igrf_coeffs_at(a->text[IK_FILE], epoch, &c, &e2)) < 0)
-        return gcp_field_key_error(a, rc == GCP_ERR_IO ? IK_FILE : IK_EPOCH, err, rc, "%s",
-                                   e2.msg);
+    int rc, epoch_bad;
+    /* a fault in the table is the file key's; only an epoch outside the
+     * table's range is the epoch key's */
+    if ((rc = igrf_read(a->text[IK_FILE], epoch, &c, &e2, &epoch_bad)) < 0)
+        return gcp_field_key_error(a, epoch_bad ? IK_EPOCH : IK_FILE, err, rc, "%s", e2.msg);
     *out = gcp_field_igrf_create(&c, (int)nmax, r_inner, r_outer);
     if (!*out) return gcp_error_set(err, GCP_ERR_NOMEM, "igrf field: out of memory");
     return 0;

@@ -163,6 +163,24 @@ static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct g
     if ((rc = get_range(s, "energy", GCP_Q_ENERGY, 1, &p->energy, err)) < 0) return rc;
     if (!(p->energy.lo > 0))
         return gcp_section_error(s, "energy", err, GCP_ERR_VALUE, "kinetic energy must be > 0");
+    /* An energy whose momentum overflows a double starts every particle with
+     * a non-finite u; it was found only as "no gyro period" and blamed on
+     * duration or dt.  |u| as the sampler forms it, and |u|^2 as the pushers
+     * form gamma from it, must be finite at both ends of the range. */
+    {
+        const double mc2 = p->species.mass * GCP_C_LIGHT * GCP_C_LIGHT;
+        const double W[2] = {p->energy.lo, p->energy.hi};
+        for (int i = 0; i < 2; i++) {
+            const double umag = sqrt(W[i] * (W[i] + 2.0 * mc2)) / (p->species.mass * GCP_C_LIGHT);
+            if (!isfinite(umag * umag))
+                return gcp_section_error(
+                    s, "energy", err, GCP_ERR_VALUE,
+                    "%g eV is beyond what double precision can carry for a %s (gamma = %g: "
+                    "the momentum squared overflows, so gamma and the gyro period are not "
+                    "finite)",
+                    W[i] / GCP_E_CHARGE, p->species.name, 1.0 + W[i] / mc2);
+        }
+    }
 
     /* Where: an L shell range (dipole) or one position. */
     int hasL = (rc = get_range(s, "L", GCP_Q_NUMBER, 0, &p->L, err));
@@ -184,6 +202,18 @@ static int load_population(struct gcp_scene *sc, struct gcp_section *s, struct g
         if ((rc = get_range(s, "longitude", GCP_Q_ANGLE, 0, &p->longitude, err)) < 0) return rc;
     } else {
         p->placement = GCP_PLACE_POSITION;
+        /* below the field's loss boundary (dipole, igrf: R_E + atmosphere)
+         * every particle PRECIPITATES at step 0; at r = 0 the dipole's
+         * gyro period is ~1e-24 s and the fault surfaced as one on dt */
+        const double *x = p->position;
+        const double r = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+        const double ri = sc->field->r_inner;
+        if (ri > 0.0 && r < ri)
+            return gcp_section_error(s, "position", err, GCP_ERR_VALUE,
+                                     "r = %g m is inside the atmosphere of field '%s' (r < "
+                                     "r_inner = %g m = R_E + %g km): the particle would "
+                                     "precipitate at once",
+                                     r, sc->field_model, ri, (ri - GCP_EARTH_RADIUS) / 1e3);
     }
 
     /* Which way: a direction, or a pitch angle (value, range, isotropic). */

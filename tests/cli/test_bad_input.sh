@@ -63,6 +63,17 @@ good | sed 's/^dt .*/dt = -1 s/' > case.run;              expect negative-dt '\[
 good | sed 's/^position .*/position = nan 0 0 m/' > case.run; expect nan-position '\[particles\] position: a component is not a finite number'
 good | sed 's/^energy .*/energy = nan MeV/' > case.run;   expect nan-energy '\[particles\] energy: value is not a finite number'
 good | sed 's/^energy .*/energy = 0 MeV/' > case.run;     expect zero-energy '\[particles\] energy: kinetic energy must be > 0'
+# a start the run cannot carry is the key's fault, not dt's or duration's:
+# inside the dipole's atmosphere (it would precipitate at step 0), and an
+# energy whose momentum overflows a double
+good | sed 's/^field    = uniform/field    = dipole/; /^B = /d' > case.run
+expect position-in-earth "case.run:13: \[particles\] position: r = 0 m is inside the atmosphere of field 'dipole' (r < r_inner = 6.4712e+06 m = R_E + 100 km): the particle would precipitate at once"
+rc=0; "$GCPUSH" --check case.run > /dev/null 2>&1 || rc=$?
+[ "$rc" = 2 ] || die "position-in-earth --check: exit status $rc, want 2"
+good | sed 's/^energy .*/energy = 1e300 eV/' > case.run
+expect huge-energy "case.run:13: \[particles\] energy: 1e+300 eV is beyond what double precision can carry for a proton"
+good | sed 's/^energy .*/energy = 1e300 eV/; s/^dt .*/dt = 1 ms/; s/^duration .*/duration = 1 s/' > case.run
+expect huge-energy-seconds "case.run:13: \[particles\] energy: 1e+300 eV is beyond what double precision"
 good | sed 's/^species .*/species = muon/' > case.run;    expect unknown-species "unknown species 'muon'"
 good | sed 's/^method .*/method = leapfrog/' > case.run;  expect unknown-method "unknown method 'leapfrog'"
 good | sed 's/^field .*/field = quadrupole/' > case.run;  expect unknown-field "unknown field model 'quadrupole'"
@@ -82,6 +93,24 @@ good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = corrupt.h5/
 expect corrupt-grid "case.run:8: \[field\] file: corrupt.h5: not an HDF5 file"
 good | sed 's/^field    = uniform/field    = eqdsk/; s/^B = .*/file = corrupt.h5/' > case.run
 expect corrupt-eqdsk "case.run:8: \[field\] file: corrupt.h5:1: expected 48 characters"
+# a grid file whose origin is NaN: named as the origin, not as a spacing error
+"$PY" - <<'PY' || die "making nan-origin.h5"
+import h5py, numpy as np
+with h5py.File("nan-origin.h5", "w") as f:
+    f.attrs["geometry"] = "axisymmetric"
+    f.attrs["origin"] = [1.0, float("nan")]
+    f.attrs["spacing"] = [0.1, 0.1]
+    f["Bphi"] = np.ones((11, 11))
+    f["BR"] = np.zeros((11, 11))
+    f["BZ"] = np.zeros((11, 11))
+PY
+good | sed 's/^field    = uniform/field    = grid/; s/^B = .*/file = nan-origin.h5/' > case.run
+expect nan-grid-origin "case.run:8: \[field\] file: nan-origin.h5: attribute /origin\[1\] = nan (axis Z): not finite"
+# an IGRF table with a row left out (its coefficient would be taken as 0):
+# refused, naming the table, the file key's line and the missing (n, m)
+grep -v '^h  3  2 ' "$DATA/igrf14coeffs.txt" > igrf-holed.txt
+good | sed 's/^field    = uniform/field    = igrf/; s/^B = .*/file = igrf-holed.txt\nepoch = 2020/; s/^position .*/position = 4 0 0 RE/' > case.run
+expect igrf-missing-row "case.run:8: \[field\] file: igrf-holed.txt: row h 3 2 (degree n = 3, order m = 2) is missing"
 "$GCPUSH" missing.run > /dev/null 2> stderr.txt && die "missing file: exit 0"
 grep -q "missing.run: cannot open" stderr.txt || die "missing file: $(cat stderr.txt)"
 "$GCPUSH" --frobnicate > /dev/null 2>&1 && die "unknown option: exit 0"
