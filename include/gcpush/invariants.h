@@ -79,7 +79,9 @@ enum gcp_event_kind {
     GCP_EVENT_LOSS = 5,   /* status; v: x[3] */
     GCP_EVENT_SWITCH = 6, /* method = hybrid (hybrid.h): v: X[3], eps, direction (+1 to full
                              orbit, -1 to guiding centre), dp2 (energy rescaling) */
-    GCP_EVENT_KINDS = 7
+    GCP_EVENT_SAMPLE = 7, /* a particle with no equator point, every sample_dt: v: mu [J/T],
+                             energy [J], p_phi [kg m^2/s] (NaN where not asked) */
+    GCP_EVENT_KINDS = 8
 };
 
 /* Value slots of a bounce event. */
@@ -120,7 +122,19 @@ struct gcp_observer_opts {
     unsigned invariants; /* GCP_INV_* */
     unsigned events;     /* GCP_EVT_* */
     double B0;           /* [T] reference dipole field at R_E for L* (0: GCP_EARTH_B0) */
+    /* [s] cadence of GCP_EVENT_SAMPLE rows (0: none).  mu, energy and p_phi
+     * are otherwise recorded only at equator points, between two mirror
+     * points, so a particle that never mirrors (a passing orbit, a uniform
+     * field, a full orbit at pitch 90 deg on the equator) would have none:
+     * a particle with no equator point in its whole push gets them at
+     * t0 + k sample_dt (k = 1, 2, ...; linear interpolation of the
+     * guiding-centre stream), and one with an equator point gets no sample
+     * row at all (its equator rows are unchanged): each particle has the
+     * one kind of row or the other.  The driver sets
+     * GCP_OBSERVER_SAMPLE_STEPS times the population's dt. */
+    double sample_dt;
 };
+#define GCP_OBSERVER_SAMPLE_STEPS 64
 
 struct gcp_observer;
 
@@ -138,8 +152,12 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
                         int64_t id0, struct gcp_events *out);
 /* The sampler function (ctx = the observer): call after every step. */
 void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx);
-/* After the push: loss events for lanes that stopped and were not seen
- * (e.g. at the start).  Returns 0, or GCP_ERR_NOMEM if an event was lost. */
+/* Sets opts.sample_dt for the next gcp_observer_begin (populations differ
+ * in dt). */
+void gcp_observer_set_sample_dt(struct gcp_observer *o, double sample_dt);
+/* After the push: drops the sample rows of lanes that had an equator
+ * point; loss events for lanes that stopped and were not seen (e.g. at the
+ * start).  Returns 0, or GCP_ERR_NOMEM if an event was lost. */
 int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b);
 
 /* Equatorial pitch-angle classification at the start, dipole fields:

@@ -79,6 +79,14 @@ struct lane {
     int c_n;
     struct cpoint cprev;
     double c_phi0, c_t0, c_acc;
+    /* cadence samples (opts.sample_dt): the next grid index k of
+     * t0 + k sample_dt; had_eq: an equator point (mu, energy, p_phi rows)
+     * was found in this push.  The test is the equator point, not a mirror
+     * point: a full orbit at pitch 90 deg on a curved field's equator has
+     * p_par ~ 0 and its gyro-averaged sign flips (mirror points) without
+     * an equator point between them, and it too must get its samples. */
+    int had_eq;
+    int64_t s_k;
 };
 
 struct gcp_observer {
@@ -96,6 +104,8 @@ struct gcp_observer {
     int32_t *fst;
     double q, m;
     int64_t id0;
+    double t0;            /* the push's start (the cadence grid's origin) */
+    int64_t ev_begin;     /* out->n at gcp_observer_begin */
     struct gcp_events *out;
     int nomem;
 };
@@ -184,6 +194,8 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->want_eq = o->want_drift ||
                  (opts->invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI));
     o->stream = o->want_bounce || o->want_eq;
+    if (!(opts->sample_dt > 0) || !(opts->invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI)))
+        o->opts.sample_dt = 0.0;
     o->B0 = opts->B0 > 0 ? opts->B0 : gcp_observer_reference_B0(f);
     *out = o;
     return 0;
@@ -286,6 +298,7 @@ static void drift_point(struct gcp_observer *o, struct lane *L, int64_t id, stru
 /* The equator point of the half-bounce that just closed (e0, e1, e2). */
 static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
 {
+    L->had_eq = 1;
     const struct gsample *s[3] = {&L->e0, &L->e1, &L->e2};
     const double t0 = s[0]->t, t1 = s[1]->t, t2 = s[2]->t;
     const double a = (t1 - t0) * (s[1]->B - s[2]->B), c = (t1 - t2) * (s[1]->B - s[0]->B);
@@ -404,6 +417,42 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     L->eq_has_prev = 0;
 }
 
+/* Cadence samples of a lane with no equator point yet: mu, energy, p_phi at
+ * every grid time t0 + k sample_dt in (s1.t, s.t], linear in t between the
+ * two stream samples (exact for the constants they are meant to show;
+ * O(h^2) otherwise, h the stream spacing: dt, or a gyration for full
+ * orbits).  Grid times before the first stream sample are skipped. */
+static void cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s)
+{
+    const double T = o->opts.sample_dt;
+    const unsigned inv = o->opts.invariants;
+    for (;;) {
+        /* t0 + k T, not a running sum: the grid does not drift with k */
+        const double tk = o->t0 + (double)L->s_k * T;
+        if (tk > s->t) break;
+        L->s_k++;
+        if (!L->have_s1 || tk <= L->s1.t) continue;
+        const struct gsample *a = &L->s1;
+        const double th = (tk - a->t) / (s->t - a->t);
+        struct gcp_event e = {.id = id, .kind = GCP_EVENT_SAMPLE, .t = tk};
+        e.v[0] = e.v[1] = e.v[2] = NAN;
+        if (inv & GCP_INV_MU) e.v[0] = a->mu + th * (s->mu - a->mu);
+        if (inv & GCP_INV_ENERGY) {
+            const double p2 = a->p2 + th * (s->p2 - a->p2);
+            const double mc2 = o->m * GCP_C_LIGHT * GCP_C_LIGHT;
+            /* as at the equator: W = p^2 c^2 / (E + m c^2) */
+            e.v[1] = p2 * GCP_C_LIGHT * GCP_C_LIGHT / (gamma_m(o, p2) * GCP_C_LIGHT * GCP_C_LIGHT + mc2);
+        }
+        if (inv & GCP_INV_PPHI) {
+            double pa = NAN, pb = NAN;
+            gcp_gc_pphi(o->f, a->t, o->q, a->X, a->ppar, &pa);
+            gcp_gc_pphi(o->f, s->t, o->q, s->X, s->ppar, &pb);
+            e.v[2] = pa + th * (pb - pa);
+        }
+        emit(o, &e);
+    }
+}
+
 static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
                           const struct gsample *s)
 {
@@ -420,6 +469,8 @@ static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
             L->mub += 0.5 * (a->mu + s->mu) * (s->t - a->t);
         }
     }
+    /* once it has an equator point, its rows would be dropped at the end: none made */
+    if (o->opts.sample_dt > 0 && !L->had_eq) cadence(o, L, id, s);
     if (o->want_eq) {
         if (s->B < L->eq_Bmin) {
             L->eq_Bmin = s->B;
@@ -600,6 +651,8 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
 {
     o->out = out;
     o->id0 = id0;
+    o->t0 = t0;
+    o->ev_begin = out->n;
     o->q = b->q;
     o->m = b->m;
     for (size_t i = 0; i < b->n; i++) {
@@ -609,6 +662,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         memset(L, 0, sizeof *L);
         L->active = 1;
         L->eq_Bmin = INFINITY;
+        L->s_k = 1;
         L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
         L->tprev = t0;
     }
@@ -628,8 +682,30 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
     observe_live(o, b, t);
 }
 
+void gcp_observer_set_sample_dt(struct gcp_observer *o, double sample_dt)
+{
+    o->opts.sample_dt =
+        sample_dt > 0 && (o->opts.invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI))
+            ? sample_dt : 0.0;
+}
+
 int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b)
 {
+    /* A lane that found an equator point after some cadence samples:
+     * whether a particle has none is known only now, so its rows go (the block's events
+     * are out->e[ev_begin..n), in order). */
+    if (o->opts.sample_dt > 0 && o->out) {
+        struct gcp_events *ev = o->out;
+        int64_t w = o->ev_begin;
+        for (int64_t k = o->ev_begin; k < ev->n; k++) {
+            const struct gcp_event *e = &ev->e[k];
+            const int64_t li = e->id - o->id0;
+            const int drop = e->kind == GCP_EVENT_SAMPLE && li >= 0 && (size_t)li < o->nlanes &&
+                             o->lane[li].had_eq;
+            if (!drop) ev->e[w++] = *e;
+        }
+        ev->n = w;
+    }
     for (size_t i = 0; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];

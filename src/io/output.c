@@ -541,7 +541,11 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
                  "mu, energy, pphi: at each equator point (the minimum of |B| between two "
                  "mirror points); bounce (J, K): between two mirror points of the same kind; "
                  "drift (L*, Phi): per turn of the equator points' azimuth. A particle that "
-                 "never mirrors (a passing orbit, a uniform field) gets none of these events");
+                 "never mirrors (a passing orbit, a uniform field) gets none of these events; "
+                 "if mu, energy or pphi is asked, it gets rows in /invariants/samples "
+                 "at t0 + k * 64 dt (k = 1, 2, ...; dt its population's step), interpolated "
+                 "linearly between guiding-centre samples; a particle with an equator point "
+                 "gets no samples row, one without gets only these");
         if (bounce) {
             static const struct ev_col c[] = {
                 {"period", GCP_BOUNCE_PERIOD, 1, 0, 0, "s"},
@@ -580,6 +584,18 @@ static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm 
         if (inv & GCP_INV_PPHI) {
             static const struct ev_col c[] = {{"pphi", 0, 1, 0, 0, "kg m^2/s"}};
             write_ev_table(w, g, "pphi", GCP_EVENT_PPHI, c, 1, 0, comm);
+        }
+        if (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI)) {
+            /* particles with no equator point, on a time cadence: the asked columns */
+            static const struct ev_col all[] = {{"mu", 0, 1, 0, 0, "J/T"},
+                                                {"energy", 1, 1, 0, 0, "J"},
+                                                {"pphi", 2, 1, 0, 0, "kg m^2/s"}};
+            static const unsigned bit[] = {GCP_INV_MU, GCP_INV_ENERGY, GCP_INV_PPHI};
+            struct ev_col c[3];
+            size_t nc = 0;
+            for (size_t k = 0; k < 3; k++)
+                if (inv & bit[k]) c[nc++] = all[k];
+            write_ev_table(w, g, "samples", GCP_EVENT_SAMPLE, c, nc, 0, comm);
         }
         H5Gclose(g);
     }
@@ -753,7 +769,7 @@ static void write_units(struct writer *w)
         {"trajectories/t", "s"}, {"trajectories/x", "m"}, {"trajectories/u", "m/s"},
         {"trajectories/ppar", "kg m/s"}, {"trajectories/count", "1"},
         {"invariants/bounce/id", "1"}, {"invariants/drift/id", "1"}, {"invariants/mu/id", "1"},
-        {"invariants/energy/id", "1"}, {"invariants/pphi/id", "1"},
+        {"invariants/energy/id", "1"}, {"invariants/pphi/id", "1"}, {"invariants/samples/id", "1"},
         {"losses/id", "1"}, {"losses/status", "1"}, {"losses/initial/L", "1"},
         {"losses/initial/alpha_eq", "rad"}, {"losses/initial/alpha_lc", "rad"},
         {"timing/cpu_seconds", "s"}, {"timing/steps", "1"}, {"timing/rank_cpu_seconds", "s"},

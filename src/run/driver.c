@@ -216,7 +216,11 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (hy) gcp_hybrid_begin(hy, &b, s->field, t0, first);
         if (S) record(&b, t0, &tc);
         const int64_t events_before = res->ev.n;
-        if (obs) gcp_observer_begin(obs, &b, t0, first, &res->ev);
+        if (obs) {
+            /* samples of particles with no equator point: every 64 steps of this population */
+            gcp_observer_set_sample_dt(obs, GCP_OBSERVER_SAMPLE_STEPS * s->pops[pop].dt);
+            gcp_observer_begin(obs, &b, t0, first, &res->ev);
+        }
         struct gcp_push_opts opts = {.t0 = t0,
                                      .dt = s->pops[pop].dt,
                                      .nsteps = s->pops[pop].nsteps,

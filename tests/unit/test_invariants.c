@@ -655,3 +655,182 @@ Test(invariants_fo, boris_proton_Lstar)
     gcp_events_free(&ev);
     gcp_field_free(f);
 }
+
+/* ---- cadence samples of particles that never mirror (issue 13) ---------- */
+
+/* Runs the observer with opts oo (sample_dt set) over a block pushed by p. */
+static void observe(const struct gcp_field *f, const struct gcp_pusher_type *p,
+                    struct gcp_block *b, const struct gcp_observer_opts *oo, double dt,
+                    int64_t nsteps, struct gcp_events *ev)
+{
+    gcp_block_start(b, f, 0.0);
+    struct gcp_observer *o;
+    cr_assert_eq(gcp_observer_create(&o, b->n, f, p, oo), 0);
+    gcp_observer_begin(o, b, 0.0, 0, ev);
+    const struct gcp_sampler smp = {1, gcp_observer_sample, o};
+    const struct gcp_push_opts po = {.t0 = 0.0, .dt = dt, .nsteps = nsteps};
+    p->advance(b, f, p, &po, &smp);
+    cr_assert_eq(gcp_observer_end(o, b), 0);
+    gcp_observer_free(o);
+    cr_assert_eq(gcp_events_sort(ev), 0);
+}
+
+/* A passing guiding centre on the magnetic axis of the analytic tokamak
+ * (B0 = 2 T, R0 = 3 m): X = R0 (cos w t, sin w t, 0), p_par and mu
+ * constant.  On the axis psi = 0 and B = B0 phihat, so exactly
+ *   mu = mu0,  W = p^2 c^2 / (E + m c^2) with p^2 = p_par^2 + 2 m mu0 B0,
+ *   p_phi = q psi + p_par R b_phi = p_par R0,
+ * and p_par never changes sign: no mirror point, hence no equator row.
+ * (A prescribed orbit, so what is checked is the sampling, not a pusher.) */
+static double tok_w;
+static size_t tok_advance(struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                          const struct gcp_sampler *smp)
+{
+    (void)f, (void)p;
+    for (int64_t k = 0; k < o->nsteps; k++) {
+        const double t = o->t0 + (double)(k + 1) * o->dt;
+        for (size_t i = 0; i < b->n_active; i++)
+            b->x[i] = 3.0 * cos(tok_w * t), b->y[i] = 3.0 * sin(tok_w * t), b->z[i] = 0.0;
+        smp->fn(b, t, smp->ctx);
+    }
+    return b->n_active;
+}
+static const struct gcp_pusher_type tok_pusher = {.name = "synthetic-passing",
+                                                 .doc = "prescribed passing orbit",
+                                                 .order = 2,
+                                                 .kind = GCP_GUIDING_CENTRE,
+                                                 .advance = tok_advance};
+
+Test(invariants_samples, tokamak_passing_on_cadence_exact)
+{
+    struct gcp_field *f = gcp_field_tokamak_create(2.0, 3.0, 1.0, 1.0, 3.0);
+    const double m = GCP_M_PROTON, q = GCP_E_CHARGE, W = 1e4 * GCP_E_CHARGE;
+    const double p = momentum(W, m), a = 30 * DEG, R0 = 3.0, Bax = 2.0;
+    const double ppar = p * cos(a), mu0 = p * p * sin(a) * sin(a) / (2.0 * m * Bax);
+    tok_w = ppar / m / R0; /* transit along the axis at v_par (non-relativistic, 10 keV) */
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, 1), 0);
+    b.q = q, b.m = m;
+    b.x[0] = R0, b.y[0] = 0, b.z[0] = 0, b.ppar[0] = ppar, b.mu[0] = mu0;
+    const double Tt = 2 * GCP_PI / tok_w, dt = Tt / 97.0;
+    const double Tc = 64 * dt; /* the driver's cadence: GCP_OBSERVER_SAMPLE_STEPS steps */
+    const int64_t nsteps = 1000;
+    const struct gcp_observer_opts oo = {
+        .invariants = GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI | GCP_INV_J | GCP_INV_L,
+        .sample_dt = Tc};
+    struct gcp_events ev = {0};
+    observe(f, &tok_pusher, &b, &oo, dt, nsteps, &ev);
+    const double mc2 = m * GCP_C_LIGHT * GCP_C_LIGHT, pc = p * GCP_C_LIGHT;
+    const double Wx = pc * pc / (sqrt(mc2 * mc2 + pc * pc) + mc2), Px = ppar * R0;
+    /* every grid time in (0, t_end]: floor(1000 / 64) = 15 rows */
+    const int64_t nexp = nsteps / 64;
+    int64_t n = 0;
+    for (int64_t k = 0; k < ev.n; k++) {
+        const struct gcp_event *e = &ev.e[k];
+        cr_assert_eq(e->kind, GCP_EVENT_SAMPLE, "event kind %d: a passing orbit has no mirror "
+                     "point, hence no equator or bounce row", e->kind);
+        n++;
+        /* t = t0 + k Tc, computed as such: bit-equal */
+        cr_assert_eq(e->t, (double)n * Tc, "row %lld at t = %.17g, not %lld Tc", (long long)n,
+                     e->t, (long long)n);
+        /* tolerances: mu is the state (interpolating equal values: exact);
+         * energy and p_phi differ from the closed forms by the round-off of
+         * |B(X)| at |X| = R0 (cos^2 + sin^2 = 1 to 1 ulp) and of ~10
+         * operations: 1e-14 relative is ~50 ulp */
+        cr_assert_eq(e->v[0], mu0);
+        cr_assert(fabs(e->v[1] / Wx - 1) < 1e-14, "energy %.17g vs %.17g", e->v[1], Wx);
+        cr_assert(fabs(e->v[2] / Px - 1) < 1e-14, "pphi %.17g vs %.17g", e->v[2], Px);
+    }
+    cr_assert_eq(n, nexp, "%lld sample rows, expected %lld", (long long)n, (long long)nexp);
+    gcp_events_free(&ev);
+    gcp_block_free(&b);
+    gcp_field_free(f);
+}
+
+/* Full-orbit gyration (boris) in a uniform 1 T field, pitch 60 and 90 deg
+ * (a 90 deg orbit mirrors nowhere: p_par = 0 exactly, since boris rotates
+ * about z and leaves u_z as it is).  Exactly mu = p^2 sin^2 a / (2 m B),
+ * W the start energy.  Boris rotates u: |u| changes by round-off only,
+ * ~1e-16 per step, at most 640 x 2.2e-16 = 1.4e-13 over the run if every
+ * step erred the same way, then the gyro-average (33 trapezoid terms) and
+ * p^2 - p_par^2 (a cancellation of 1/sin^2 a = 1.33): 1e-12 relative. */
+Test(invariants_samples, uniform_fo_gyration_on_cadence_exact)
+{
+    const double Bv[3] = {0, 0, 1.0}, Ev[3] = {0, 0, 0};
+    struct gcp_field *f = gcp_field_uniform_create(Bv, Ev);
+    const double m = GCP_M_PROTON, q = GCP_E_CHARGE, W = 1e4 * GCP_E_CHARGE;
+    const double p = momentum(W, m), um = p / m;
+    const double as[2] = {60 * DEG, 90 * DEG};
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, 2), 0);
+    b.q = q, b.m = m;
+    for (size_t i = 0; i < 2; i++) {
+        b.x[i] = 0.1 * (double)i, b.y[i] = 0, b.z[i] = 0;
+        b.ux[i] = 0, b.uy[i] = um * sin(as[i]), b.uz[i] = i == 1 ? 0.0 : um * cos(as[i]);
+    }
+    const double gam = sqrt(1 + um * um / (GCP_C_LIGHT * GCP_C_LIGHT));
+    const double Tg = 2 * GCP_PI * gam * m / (q * 1.0), dt = Tg / 32;
+    const double Tc = 64 * dt; /* two gyrations */
+    const struct gcp_observer_opts oo = {.invariants = GCP_INV_MU | GCP_INV_ENERGY,
+                                         .sample_dt = Tc};
+    struct gcp_events ev = {0};
+    observe(f, &gcp_pusher_boris, &b, &oo, dt, 640, &ev);
+    /* stream samples are gyration midpoints, 0.5 Tg .. ~19.5 Tg (the boris
+     * gyration is longer than Tg by (pi/32)/atan(pi/32) - 1 = 0.3%): the
+     * grid times 2, 4, ..., 18 Tg, 9 rows each */
+    int64_t n[2] = {0, 0};
+    for (int64_t k = 0; k < ev.n; k++) {
+        const struct gcp_event *e = &ev.e[k];
+        cr_assert_eq(e->kind, GCP_EVENT_SAMPLE, "kind %d", e->kind);
+        const int64_t i = e->id;
+        n[i]++;
+        cr_assert_eq(e->t, (double)n[i] * Tc);
+        const double mux = p * p * sin(as[i]) * sin(as[i]) / (2.0 * m * 1.0);
+        cr_assert(fabs(e->v[0] / mux - 1) < 1e-12, "pitch %.0f: mu %.17g vs %.17g",
+                  as[i] / DEG, e->v[0], mux);
+        cr_assert(fabs(e->v[1] / W - 1) < 1e-12, "pitch %.0f: energy %.17g vs %.17g",
+                  as[i] / DEG, e->v[1], W);
+        cr_assert(isnan(e->v[2]), "pphi was not asked: NaN");
+    }
+    for (int i = 0; i < 2; i++) cr_assert_eq(n[i], 9, "pitch %.0f: %lld rows", as[i] / DEG,
+                                             (long long)n[i]);
+    gcp_events_free(&ev);
+    gcp_block_free(&b);
+    gcp_field_free(f);
+}
+
+/* Bouncing particles (the synthetic dipole orbits above) keep their events
+ * bit for bit: a cadence (Tb/10) shorter than the time to the first mirror
+ * point (Tb/4) makes rows before it, and they are dropped at the end. */
+Test(invariants_samples, bouncing_unchanged)
+{
+    struct gcp_field *f = gcp_field_dipole_create(B0, 0, RE + H_ATM, 15.0 * RE);
+    const double m = GCP_M_PROTON, q = GCP_E_CHARGE, p = momentum(10 * MEV, m);
+    const double Ls[4] = {2.5, 4.0, 4.0, 6.0}, as[4] = {20 * DEG, 35 * DEG, 60 * DEG, 80 * DEG};
+    const double Tb = 2.0, Td = 61.3, dt = Tb / 157.3;
+    struct gcp_events ev[2] = {{0}, {0}};
+    for (int run = 0; run < 2; run++) {
+        struct gcp_block b;
+        cr_assert_eq(gcp_block_alloc(&b, 4), 0);
+        b.q = q, b.m = m;
+        for (size_t i = 0; i < 4; i++) {
+            const double y = sin(as[i]), Beq = B0 / pow(Ls[i], 3);
+            synth_lane[i] = (struct synth){Ls[i], mirror_lat(y), 2 * GCP_PI / Tb, -2 * GCP_PI / Td, p};
+            b.mu[i] = p * p * y * y / (2.0 * m * Beq);
+            synth_place(&b, i, 0.0);
+        }
+        const struct gcp_observer_opts oo = {
+            .invariants = GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI | GCP_INV_J | GCP_INV_L,
+            .sample_dt = run ? Tb / 10 : 0.0};
+        observe(f, &synth_pusher, &b, &oo, dt, (int64_t)(1.2 * Td / dt), &ev[run]);
+        gcp_block_free(&b);
+    }
+    cr_assert_gt(ev[0].n, 100);
+    cr_assert_eq(ev[1].n, ev[0].n, "%lld events with the cadence, %lld without",
+                 (long long)ev[1].n, (long long)ev[0].n);
+    cr_assert_eq(memcmp(ev[0].e, ev[1].e, (size_t)ev[0].n * sizeof *ev[0].e), 0);
+    gcp_events_free(&ev[0]);
+    gcp_events_free(&ev[1]);
+    gcp_field_free(f);
+}
