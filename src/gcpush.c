@@ -397,7 +397,16 @@ int main(int argc, char **argv)
                     "(those particles end NONFINITE)\n", sc->pops[k].file,
                     (long long)sc->pops[k].init.nonfinite, (long long)sc->pops[k].count);
     if (!restart && gcp_sweep_wanted(sc)) { /* [sweep]: error against run time (sweep.h) */
-        int st = gcp_sweep_main(sc, check, quiet);
+        /* a sweep's output is not replaced without --force either */
+        int exists = !check && me == 0 && !force && access(sc->output, F_OK) == 0;
+        MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
+        int st = EXIT_BAD_INPUT;
+        if (exists) {
+            if (me == 0)
+                fprintf(stderr, "gcpush: %s: [output] file: '%s' exists: remove it or run with "
+                        "--force to replace it\n", sc->path, sc->output);
+        } else
+            st = gcp_sweep_main(sc, check, quiet);
         gcp_scene_free(sc);
         MPI_Finalize();
         return st;

@@ -11,6 +11,9 @@ sed 's/^file = sweep-gyration.h5/file = out.h5/' "$ROOT/runs/sweep-gyration.run"
 grep -q "ok: sweep of 4 method" check.txt || die "--check says: $(cat check.txt)"
 [ ! -e out.h5 ] || die "--check wrote output"
 "$GCPUSH" sw.run > table.txt 2> progress.txt || die "sweep run failed: $(tail -2 progress.txt)"
+# an existing sweep output is not replaced without --force (issue 15, item 7)
+if "$GCPUSH" sw.run > /dev/null 2> again.txt; then die "a sweep replaced its existing output"; fi
+grep -q "out.h5' exists: remove it or run with --force" again.txt || die "sweep over an existing output: $(cat again.txt)"
 grep -q "^sweep sweep-gyration: 1 particle" table.txt || die "no table header: $(head -2 table.txt)"
 [ "$(grep -c '^higuera-cary ' table.txt)" = 7 ] || die "table rows: $(cat table.txt)"
 "$PY" - <<'PY' || die "/sweep layout or values"
