@@ -5,6 +5,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include <math.h>
+
+#include "gcpush/particles.h"
 #include "gcpush/pusher.h"
 
 /* Swaps every per-lane array entry of lanes i and j. */
@@ -23,5 +26,19 @@ size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t st
 
 /* Ends a push of k steps: the n live lanes get t = t_end and k more steps. */
 void gcp_block_finish(struct gcp_block *b, size_t n, double t_end, int64_t k);
+
+
+/* The field's bounds at one point x [m] (the scalar form of the block's
+ * classification): NONFINITE, PRECIPITATED (|x| < r_inner), LEFT_DOMAIN
+ * (|x| > r_outer or |z| > z_max), or 0.  Shared by the per-lane steppers
+ * (gc-rk45/rk8pd, the Sundman methods, the fo-rk8pd reference). */
+static inline int32_t gcp_point_domain_status(const struct gcp_field *f, const double x[3])
+{
+    const double r2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+    if (!isfinite(r2)) return GCP_NONFINITE;
+    if (r2 < f->r_inner * f->r_inner) return GCP_PRECIPITATED;
+    if (r2 > f->r_outer * f->r_outer || fabs(x[2]) > f->z_max) return GCP_LEFT_DOMAIN;
+    return 0;
+}
 
 #endif

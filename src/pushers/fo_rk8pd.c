@@ -71,15 +71,6 @@ static int fo_rhs(double t, const double y[], double dydt[], void *params)
     return GSL_SUCCESS;
 }
 
-static int32_t fo_geo(const struct gcp_field *f, const double x[3])
-{
-    const double r2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-    if (!isfinite(r2)) return GCP_NONFINITE;
-    if (r2 < f->r_inner * f->r_inner) return GCP_PRECIPITATED;
-    if (r2 > f->r_outer * f->r_outer || fabs(x[2]) > f->z_max) return GCP_LEFT_DOMAIN;
-    return 0;
-}
-
 struct fo_ws {
     gsl_odeiv2_step *step;
     gsl_odeiv2_control *ctrl;
@@ -125,7 +116,7 @@ static int32_t fo_lane(struct gcp_block *b, size_t i, const struct gcp_field *f,
         }
         accepted++;
         const double x[3] = {y[0] * c.Ls, y[1] * c.Ls, y[2] * c.Ls};
-        if ((status = fo_geo(f, x))) break;
+        if ((status = gcp_point_domain_status(f, x))) break;
     }
     b->x[i] = y[0] * c.Ls, b->y[i] = y[1] * c.Ls, b->z[i] = y[2] * c.Ls;
     b->ux[i] = y[3] * c.Us, b->uy[i] = y[4] * c.Us, b->uz[i] = y[5] * c.Us;

@@ -68,15 +68,6 @@ static int lane_rhs(double t, const double y[], double dydt[], void *params)
     return GSL_SUCCESS;
 }
 
-static int32_t lane_geo(const struct gcp_field *f, const double X[3])
-{
-    const double r2 = X[0] * X[0] + X[1] * X[1] + X[2] * X[2];
-    if (!isfinite(r2)) return GCP_NONFINITE;
-    if (r2 < f->r_inner * f->r_inner) return GCP_PRECIPITATED;
-    if (r2 > f->r_outer * f->r_outer || fabs(X[2]) > f->z_max) return GCP_LEFT_DOMAIN;
-    return 0;
-}
-
 struct adaptive_ws {
     gsl_odeiv2_step *step;
     gsl_odeiv2_control *ctrl;
@@ -158,7 +149,7 @@ static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f
         memcpy(L->ya, yg, sizeof yg);
         L->ta = tg;
         const double X[3] = {L->y[0] * L->Ls, L->y[1] * L->Ls, L->y[2] * L->Ls};
-        L->stop = lane_geo(f, X);
+        L->stop = gcp_point_domain_status(f, X);
         if (!L->stop && o->adiabaticity_max > 0.0) {
             double dX[3], dp;
             L->stop = gcp_gc_eval(f, L->t, b->q, b->m, X, L->y[3] * L->Ps, b->mu[i],

@@ -57,15 +57,6 @@ struct sd_lane {
     int64_t steps; /* s-steps taken in this advance */
 };
 
-/* The field's bounds at X (gcp_block_classify's geometry for one lane). */
-static int sd_domain(const struct gcp_field *f, const double X[3])
-{
-    const double r2 = X[0] * X[0] + X[1] * X[1] + X[2] * X[2];
-    if (r2 < f->r_inner * f->r_inner) return GCP_PRECIPITATED;
-    if (r2 > f->r_outer * f->r_outer || fabs(X[2]) > f->z_max) return GCP_LEFT_DOMAIN;
-    return 0;
-}
-
 /* After a step: X, p_par into block lane i, and the lane's status there. */
 static int sd_after(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
                     struct gcp_block *b, size_t i, double amax)
@@ -76,7 +67,7 @@ static int sd_after(const struct gl_ctx *C, const struct gcp_gc_consts *k, struc
     b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
     b->ppar[i] = ppar;
     st = gcp_gc_eval(C->chart.field, L->t, k->q, k->m, X, ppar, k->mu, amax, dX, &dp);
-    return st ? st : sd_domain(C->chart.field, X);
+    return st ? st : gcp_point_domain_status(C->chart.field, X);
 }
 
 /* The last step before t_target: ds' with t(ds') = t_target, by secant
