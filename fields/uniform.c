@@ -114,7 +114,7 @@ const struct gcp_field_type gcp_field_uniform = {
     .destroy = NULL,
     /* not GCP_CAP_AXISYM: B may point anywhere (the symmetric gauge above
      * is about B, not z, so p_phi is not a constant of a tilted B) */
-    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A,
+    .caps = GCP_CAP_B | GCP_CAP_GRADB | GCP_CAP_E | GCP_CAP_A | GCP_CAP_UNIFORM,
     .eval_soa = uniform_eval_soa,
     .potential = uniform_potential,
     .keys = uniform_keys,

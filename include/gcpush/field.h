@@ -59,8 +59,10 @@ enum gcp_field_cap {
     GCP_CAP_PSI = 1u << 4,      /* poloidal flux psi = R A_phi (type->psi) */
     GCP_CAP_TIME = 1u << 5,     /* B or E depends on t */
     GCP_CAP_AXISYM = 1u << 6,   /* symmetric about the z axis */
-    GCP_CAP_DIPOLE_L = 1u << 7  /* centred dipole: McIlwain L = r/(R_E cos^2 lat) and the
+    GCP_CAP_DIPOLE_L = 1u << 7, /* centred dipole: McIlwain L = r/(R_E cos^2 lat) and the
                                    surface field B0 (type->dipole_B0) are its magnetic coordinates */
+    GCP_CAP_UNIFORM = 1u << 8   /* B and E the same everywhere and at all times (the exact
+                                   motion of gcp_exact_uniform, sweep.h, applies) */
 };
 
 /* Struct-of-arrays outputs of a block evaluation: n entries per array.

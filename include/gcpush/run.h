@@ -26,6 +26,8 @@ GCP_API_BEGIN
 extern "C" {
 #endif
 
+struct gcp_sweep_spec;
+
 enum gcp_spread { GCP_FIXED = 0, GCP_LIN = 1, GCP_LOG = 2 };
 
 /* A range "a .. b [lin|log]" or a single value (lo == hi, GCP_FIXED). */
@@ -107,6 +109,7 @@ struct gcp_scene {
     int64_t trajectory_samples; /* samples per particle, incl. the initial one (0: none) */
     unsigned invariants;    /* [diagnostics] invariants: GCP_INV_* bits (invariants.h); 0: none */
     unsigned events;        /* [diagnostics] events: GCP_EVT_* bits; 0: none */
+    struct gcp_sweep_spec *sweep; /* the [sweep] section (sweep.h), read with the rest; NULL: none */
 };
 
 /* Reads, validates and resolves a run file (field built, periods turned

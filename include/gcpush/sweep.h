@@ -89,15 +89,17 @@ struct gcp_sweep_row {
     double bounce_phase_error;/* [rad] 2 pi T |1/T_b - 1/T_b,ref|: the bounce phase at the end
                                  (T the duration) from the mean measured bounce periods of the
                                  run and the reference (invariant observer, untimed pass;
-                                 dipole, mirror, tokamak); NaN where either has no bounce */
-    double drift_phase_error; /* [rad] the same with the mean drift periods (dipole only) */
+                                 axisymmetric fields: dipole, mirror, tokamak, R-Z grids,
+                                 G-EQDSK); NaN where either has no bounce */
+    double drift_phase_error; /* [rad] the same with the mean drift periods (centred-dipole
+                                 fields, GCP_CAP_DIPOLE_L) */
     double energy_error;      /* [1] static fields: |H_end - H_0| / W, H = W + q phi, W the
                                  largest kinetic energy of the start and the two ends;
                                  time-dependent fields: |W_end - W_ref| / W_ref */
     double mu_drift;          /* [1/s] relative drift rate |last - first| / first / (t_last -
                                  t_first) of the per-bounce mean mu; NaN with < 2 bounces */
     double K_drift;           /* [1/s] the same for K (per bounce) */
-    double Lstar_drift;       /* [1/s] the same for L* (per drift orbit; dipole only) */
+    double Lstar_drift;       /* [1/s] the same for L* (per drift orbit; GCP_CAP_DIPOLE_L) */
 };
 
 struct gcp_sweep_table {
@@ -107,20 +109,32 @@ struct gcp_sweep_table {
     double duration;          /* [s] */
 };
 
-/* Whether the scene's run file has a [sweep] section. */
+/* Whether the scene's run file has a [sweep] section (read and validated
+ * with the rest of the run file by gcp_scene_load: sc->sweep, errors naming
+ * file, line and key). */
 int gcp_sweep_wanted(const struct gcp_scene *sc);
 
-/* Reads and validates the [sweep] section of sc->text (errors name file,
- * line and key).  Returns 1 when parsed, 0 when the file has no [sweep], or
- * a negative code with err set. */
-int gcp_sweep_parse(const struct gcp_scene *sc, struct gcp_sweep_spec *spec,
-                    struct gcp_error *err);
+/* Where a sweep's rows go: row() is called once per finished row, in
+ * order; it returns 0, or a negative code that ends the sweep. */
+struct gcp_sweep_sink {
+    int (*row)(void *ctx, const struct gcp_sweep_row *row);
+    void *ctx;
+};
 
-/* Runs the sweep; fills *table (free with gcp_sweep_table_free).  progress
- * (may be NULL) gets one line per finished row.  Returns 0 or a negative
- * code with err set (no analytic answer for this scene, out of memory). */
-int gcp_sweep_run(const struct gcp_scene *sc, const struct gcp_sweep_spec *spec,
-                  struct gcp_sweep_table *table, FILE *progress, struct gcp_error *err);
+/* Runs the sweep of sc->sweep: each row pushes its population through the
+ * same engine as a run of the scene (its start, block push and invariant
+ * observer) with the row's method, step and tolerance, and goes to sink.
+ * progress (may be NULL) gets one line per finished row.  Returns 0 or a
+ * negative code with err set (no analytic answer for this scene, out of
+ * memory, the sink's code). */
+int gcp_sweep_run(const struct gcp_scene *sc, const struct gcp_sweep_sink *sink, FILE *progress,
+                  struct gcp_error *err);
+
+/* A table of rows in memory (sweep_output.c): init sets its reference and
+ * duration from sc; gcp_sweep_table_add is a sink's row() (ctx = the
+ * table). */
+void gcp_sweep_table_init(struct gcp_sweep_table *t, const struct gcp_scene *sc);
+int gcp_sweep_table_add(void *table, const struct gcp_sweep_row *row);
 void gcp_sweep_table_free(struct gcp_sweep_table *t);
 
 /* The table on `to`, one line per row. */
@@ -132,11 +146,11 @@ int gcp_sweep_write(const struct gcp_scene *sc, const struct gcp_sweep_table *t,
                     struct gcp_error *err);
 
 /* The command line's sweep (gcpush FILE.run when FILE has [sweep]):
- * validates [sweep]; unless check, runs the sweep on rank 0 of
+ * unless check, runs the sweep on rank 0 of
  * MPI_COMM_WORLD (the other ranks wait: timings are of one process),
  * prints the table (unless quiet) and writes the output.  Collective;
- * returns the process exit status: 0, 1 (run or output failed), 2 (bad
- * [sweep] section), with the message on stderr from rank 0. */
+ * returns the process exit status: 0 or 1 (run or output failed), with the
+ * message on stderr from rank 0. */
 int gcp_sweep_main(const struct gcp_scene *sc, int check, int quiet);
 
 /* ---- exact motion in uniform, static fields ---------------------------

@@ -1,5 +1,6 @@
-/* /sweep in the output file (include/gcpush/sweep.h), and the command
- * line's sweep.  The table is small: rank 0 writes it alone with the
+/* The sweep's results sink: the rows as a table in memory, printed and
+ * written as /sweep in the output file (include/gcpush/sweep.h), and the
+ * command line's sweep.  The table is small: rank 0 writes it alone with the
  * default (serial) file access, under a temporary name renamed on success.
  *
  * Layout: /sweep holds one 1-D dataset per column, one row per (method,
@@ -9,6 +10,7 @@
  * build_flags, run_file, run_file_name, units = "SI", scene, field, method,
  * ranks, duration, seed, particles). */
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +22,67 @@
 #include "gcpush/sweep.h"
 #include "io_priv.h"
 
+/* ---- the table: a sink's rows ------------------------------------------- */
+
+void gcp_sweep_table_init(struct gcp_sweep_table *t, const struct gcp_scene *sc)
+{
+    memset(t, 0, sizeof *t);
+    t->duration = sc->duration;
+    if (sc->sweep)
+        snprintf(t->reference, sizeof t->reference, "%s",
+                 sc->sweep->analytic ? "analytic" : sc->sweep->ref_text);
+}
+
+int gcp_sweep_table_add(void *table, const struct gcp_sweep_row *r)
+{
+    struct gcp_sweep_table *t = table;
+    if (t->n == t->cap) {
+        size_t cap = t->cap ? 2 * t->cap : 32;
+        struct gcp_sweep_row *nr = realloc(t->rows, cap * sizeof *nr);
+        if (!nr) return GCP_ERR_NOMEM;
+        t->rows = nr;
+        t->cap = cap;
+    }
+    t->rows[t->n++] = *r;
+    return 0;
+}
+
+void gcp_sweep_table_free(struct gcp_sweep_table *t)
+{
+    free(t->rows);
+    t->rows = NULL;
+    t->n = t->cap = 0;
+}
+
+void gcp_sweep_print(FILE *to, const struct gcp_scene *sc, const struct gcp_sweep_table *t)
+{
+    fprintf(to, "sweep %s: %lld particle%s, %.6g s in %s, reference %s\n", sc->name,
+            (long long)sc->total, sc->total == 1 ? "" : "s", t->duration, sc->field_model,
+            t->reference);
+    fprintf(to, "%-13s %-10s %-10s %-12s %-7s %11s %10s %8s %10s %10s %10s %10s %10s %6s\n",
+            "method", "population", "dt[s]", "given", "tol", "steps", "cpu[s]", "ns/step",
+            "pos_err[m]", "err/rho", "gc_err[m]", "phase[rad]", "energy", "failed");
+    for (size_t i = 0; i < t->n; i++) {
+        const struct gcp_sweep_row *r = &t->rows[i];
+        char given[32], tol[16];
+        if (isfinite(r->dt_given))
+            snprintf(given, sizeof given, "%g %s", r->dt_given, r->dt_unit);
+        else
+            snprintf(given, sizeof given, "-");
+        if (isfinite(r->tolerance))
+            snprintf(tol, sizeof tol, "%.0e", r->tolerance);
+        else
+            snprintf(tol, sizeof tol, "-");
+        fprintf(to, "%-13s %-10s %-10.4g %-12s %-7s %11lld %10.4g %8.3g %10.3e %10.3e %10.3e "
+                    "%10.3e %10.3e %6lld\n",
+                r->method, r->population, r->dt, given, tol, (long long)r->steps, r->cpu_seconds,
+                r->steps ? 1e9 * r->cpu_seconds / (double)r->steps : 0.0, r->position_error,
+                r->position_error_gyroradius, r->gc_position_error, r->gyrophase_error,
+                r->energy_error, (long long)r->failed);
+    }
+}
+
+/* ---- /sweep ------------------------------------------------------------- */
 
 static void column(int *bad, hid_t g, const char *name, hid_t type, size_t n, const void *data,
                    const char *units)
@@ -138,25 +201,25 @@ int gcp_sweep_main(const struct gcp_scene *sc, int check, int quiet)
     int me;
     MPI_Comm_rank(MPI_COMM_WORLD, &me);
     struct gcp_error err = {0};
-    struct gcp_sweep_spec spec;
     int status = 0;
-    if (gcp_sweep_parse(sc, &spec, &err) < 0) {
-        status = 2;
-    } else if (check) {
+    if (check) {
+        const struct gcp_sweep_spec *spec = sc->sweep;
         if (me == 0 && !quiet)
             printf("%s: ok: sweep of %zu method(s) x %zu step(s) / %zu tolerance(s) on %lld "
-                   "particle(s) for %.6g s\n", sc->path, spec.nmethods, spec.ndt, spec.ntol,
+                   "particle(s) for %.6g s\n", sc->path, spec->nmethods, spec->ndt, spec->ntol,
                    (long long)sc->total, sc->duration);
     } else if (me == 0) {
         struct gcp_sweep_table t;
-        if (gcp_sweep_run(sc, &spec, &t, quiet ? NULL : stderr, &err)) {
+        gcp_sweep_table_init(&t, sc);
+        const struct gcp_sweep_sink sink = {gcp_sweep_table_add, &t};
+        if (gcp_sweep_run(sc, &sink, quiet ? NULL : stderr, &err)) {
             status = 1;
         } else {
             if (!quiet) gcp_sweep_print(stdout, sc, &t);
             if (gcp_sweep_write(sc, &t, &err)) status = 1;
             else if (!quiet) printf("output: %s\n", sc->output);
-            gcp_sweep_table_free(&t);
         }
+        gcp_sweep_table_free(&t);
     }
     if (me == 0 && status) fprintf(stderr, "gcpush: %s\n", err.msg);
     MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);

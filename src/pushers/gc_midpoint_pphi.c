@@ -21,7 +21,7 @@
  *   d/dt theta_i(z) = d_i theta_j(z) zdot^j - d_i H(z)          (EL)
  * are first order, and in the guiding-centre equations of kernels.h.
  *
- * Coordinates.  Where the field is axisymmetric (f->axisymmetric: dipole,
+ * Coordinates.  Where the field is axisymmetric (GCP_CAP_AXISYM: dipole,
  * mirror, tokamak), c = (R, phi, Z) cylindrical; theta and H are then
  * independent of phi (the field, A and their derivatives are evaluated in
  * the phi = 0 half-plane at (R, 0, Z), where Rhat, phihat, Zhat = x, y, z,
@@ -495,7 +495,7 @@ static size_t gc_vi_advance(struct gcp_block *b, const struct gcp_field *f,
         b->n_active = gcp_block_retire(b, n, o->t0, 0);
         return b->n_active;
     }
-    const struct vi_run R = {{f, f->axisymmetric && f->type != &gcp_field_uniform, b->q, 0.0, 0.0,
+    const struct vi_run R = {{f, (gcp_field_caps(f) & GCP_CAP_AXISYM) != 0, b->q, 0.0, 0.0,
                               o->adiabaticity_max}};
     return gcp_gc_lanes_advance(b, f, o, s, &vi_ops, &R);
 }

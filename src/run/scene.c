@@ -651,7 +651,7 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
                                      "%.1f GiB of trajectory samples: sample less often",
                                      bytes / (1 << 30));
     }
-    return 0;
+    return gcp_sweep_spec_parse(sc, rf, err);
 }
 
 int gcp_scene_parse_with(const char *path, const char *text, gcp_states_reader rd,
@@ -712,6 +712,7 @@ void gcp_scene_free(struct gcp_scene *s)
         free(s->pops[k].init.mu);
     }
     free(s->pops);
+    free(s->sweep);
     free(s->path);
     free(s->text);
     free(s);

@@ -28,10 +28,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             free(text);
             return 0;
         }
-        /* a [sweep] section is read too (its own keys and errors) */
-        struct gcp_sweep_spec spec;
-        struct gcp_error serr = {0};
-        if (gcp_sweep_parse(sc, &spec, &serr) < 0 && serr.msg[0] == '\0') __builtin_trap();
+        /* a [sweep] section is read with the rest: a scene that has one holds it */
+        if (gcp_sweep_wanted(sc) && sc->sweep->nmethods == 0) __builtin_trap();
         /* a valid scene: its initial states must be computable */
         for (int64_t id = 0; id < sc->total && id < 64; id++) {
             int pop;
