@@ -4,7 +4,7 @@
  * Each rank holds its rows sorted by particle id.  Under MPI the rows are
  * moved first (one Alltoallv per column) so that each rank holds one block
  * of consecutive ids, and one collective H5Dwrite per dataset puts every
- * block in place (struct writer).  The file is
+ * block in place (struct writer, output_rows.c).  The file is
  * written under a temporary name and renamed by rank 0 only when every rank
  * succeeded; otherwise the temporary file is removed. */
 #define _GNU_SOURCE /* fallocate (Linux) */
@@ -19,258 +19,12 @@
 
 #include <hdf5.h>
 
-#include "gcpush/io.h"
-#include "io_priv.h"
-
-
-struct writer {
-    hid_t file;
-    hid_t dxpl;              /* collective transfer */
-    hid_t dxpl_ind;          /* independent transfer */
-    const struct gcp_results *r;
-    int compression;         /* trajectory deflate level, 0: none */
-    int64_t total;           /* rows in the file */
-    int bad;                 /* a call failed on this rank */
-    /* Under MPI the rows are first moved so that rank k holds the ids
-     * [lo, hi) = [k N / P, (k+1) N / P): each rank then writes one
-     * hyperslab.  A selection of one hyperslab per run of consecutive ids
-     * (self-scheduled 64-particle chunks: ~78 000 of them per rank for 1e7
-     * particles) made HDF5's selection and collective write quadratic. */
-    MPI_Comm comm;
-    int spread;              /* rows moved (more than one rank) */
-    int64_t lo, hi;
-    int *scount, *sdispl, *rcount, *rdispl; /* rows to / from each rank */
-    int64_t *place;          /* received row j goes to row place[j] - lo */
-    const char *output;      /* for progress lines */
-    double t0, last;         /* wall clock: write start, last progress line */
-    int ndone;               /* datasets written */
-};
-
-static int progress_on = 1;
-void gcp_output_progress(int on) { progress_on = on; }
-
-static double wall(void) { return MPI_Wtime(); }
-
-/* A progress line on rank 0 every 10 s of a write longer than 5 s. */
-static void write_progress(struct writer *w, const char *name)
-{
-    w->ndone++;
-    if (!progress_on) return;
-    int me;
-    MPI_Comm_rank(w->comm, &me);
-    const double now = wall();
-    if (me || now - w->t0 < 5.0 || now - w->last < 10.0) return;
-    fprintf(stderr, "writing %s: %d datasets (last %s), %.0f s\n", w->output, w->ndone, name,
-            now - w->t0);
-    fflush(stderr);
-    w->last = now;
-}
-
-/* Runs per rank above which rows are moved; GCP_SPREAD_RUNS overrides it
- * (tests force the move on small runs with 0).  The OR of one hyperslab per
- * run costs HDF5 time quadratic in the runs: 1e7 particles on 2 ranks took
- * 370 s with rows in place against 20 s moved (21.5 s on 1 rank), measured
- * on the idle 2-core build machine; below ~1000 runs either way is fast. */
-static int64_t spread_runs(void)
-{
-    const char *e = getenv("GCP_SPREAD_RUNS");
-    return e && *e ? strtoll(e, NULL, 10) : 1024;
-}
-
-static int64_t block_lo(int64_t N, int P, int k) { return (int64_t)((__int128)N * k / P); }
-
-/* Plans the move: who sends which rows where, and where the received rows
- * go.  Every id 0..N-1 must arrive exactly once (restart_load and the push
- * guarantee it); otherwise w->bad. */
-static void spread_plan(struct writer *w)
-{
-    const struct gcp_results *r = w->r;
-    int me, P;
-    MPI_Comm_rank(w->comm, &me);
-    MPI_Comm_size(w->comm, &P);
-    const int64_t N = w->total;
-    w->lo = block_lo(N, P, me);
-    w->hi = block_lo(N, P, me + 1);
-    w->scount = calloc((size_t)P, sizeof(int));
-    w->sdispl = calloc((size_t)P, sizeof(int));
-    w->rcount = calloc((size_t)P, sizeof(int));
-    w->rdispl = calloc((size_t)P, sizeof(int));
-    int bad = !w->scount || !w->sdispl || !w->rcount || !w->rdispl;
-    for (int64_t i = 0, k = 0; i < r->n && !bad; i++) {
-        /* rows are sorted by id, so each rank's rows are one contiguous run */
-        while (k + 1 < P && r->id[i] >= block_lo(N, P, (int)k + 1)) k++;
-        w->scount[k]++;
-    }
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, w->comm);
-    if (bad) {
-        w->bad = 1;
-        return;
-    }
-    MPI_Alltoall(w->scount, 1, MPI_INT, w->rcount, 1, MPI_INT, w->comm);
-    int64_t nr = 0;
-    for (int k = 0; k < P; k++) {
-        w->sdispl[k] = k ? w->sdispl[k - 1] + w->scount[k - 1] : 0;
-        w->rdispl[k] = (int)nr;
-        nr += w->rcount[k];
-    }
-    w->place = malloc((size_t)(nr ? nr : 1) * sizeof *w->place);
-    unsigned char *seen = calloc((size_t)(w->hi - w->lo ? w->hi - w->lo : 1), 1);
-    bad = !w->place || !seen || nr != w->hi - w->lo;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, w->comm);
-    if (!bad) {
-        MPI_Alltoallv(r->id, w->scount, w->sdispl, MPI_INT64_T, w->place, w->rcount, w->rdispl,
-                      MPI_INT64_T, w->comm);
-        for (int64_t j = 0; j < nr && !bad; j++) {
-            const int64_t q = w->place[j] - w->lo;
-            bad = q < 0 || q >= nr || seen[q];
-            if (!bad) seen[q] = 1;
-        }
-    }
-    free(seen);
-    w->bad |= bad;
-    w->spread = 1;
-}
-
-static void spread_free(struct writer *w)
-{
-    free(w->scount);
-    free(w->sdispl);
-    free(w->rcount);
-    free(w->rdispl);
-    free(w->place);
-}
-
-/* This rank's block of rows [lo, hi) of a column whose rows (`row` bytes
- * each) are `data` in the rank's order: malloc'ed, or NULL on failure. */
-static void *spread_column(struct writer *w, const void *data, size_t row)
-{
-    const int64_t nr = w->hi - w->lo;
-    char *in = malloc((size_t)(nr ? nr : 1) * row), *out = malloc((size_t)(nr ? nr : 1) * row);
-    int bad = !in || !out;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, w->comm);
-    if (bad) {
-        free(in);
-        free(out);
-        return NULL;
-    }
-    MPI_Datatype t;
-    MPI_Type_contiguous((int)row, MPI_BYTE, &t);
-    MPI_Type_commit(&t);
-    MPI_Alltoallv(data, w->scount, w->sdispl, t, in, w->rcount, w->rdispl, t, w->comm);
-    MPI_Type_free(&t);
-    for (int64_t j = 0; j < nr; j++)
-        memcpy(out + (size_t)(w->place[j] - w->lo) * row, in + (size_t)j * row, row);
-    free(in);
-    return out;
-}
-
-/* Selects this rank's rows (runs of consecutive ids) in a dataset space of
- * dims {total, d1, d2} (rank 1..3). */
-static void select_rows(hid_t fspace, const struct gcp_results *r, int rank, const hsize_t *dims)
-{
-    H5Sselect_none(fspace);
-    int64_t k = 0;
-    while (k < r->n) {
-        int64_t e = k + 1;
-        while (e < r->n && r->id[e] == r->id[e - 1] + 1) e++;
-        hsize_t start[3] = {(hsize_t)r->id[k], 0, 0};
-        hsize_t count[3] = {(hsize_t)(e - k), rank > 1 ? dims[1] : 1, rank > 2 ? dims[2] : 1};
-        H5Sselect_hyperslab(fspace, H5S_SELECT_OR, start, NULL, count, NULL);
-        k = e;
-    }
-}
-
-/* Creates dataset `name` of shape {total, tail...} and writes this rank's
- * rows from `data` (rows in id order, contiguous). */
-static void write_rows_dcpl(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
-                            hsize_t d1, hsize_t d2, const void *data, hid_t dcpl)
-{
-    hsize_t dims[3] = {(hsize_t)w->total, d1, d2};
-    const hsize_t per_row = (rank > 1 ? d1 : 1) * (rank > 2 ? d2 : 1);
-    void *block = NULL;
-    int64_t nrows = w->r->n;
-    if (w->spread) {
-        block = spread_column(w, data, per_row * H5Tget_size(type));
-        if (!block) w->bad = 1;
-        data = block;
-        nrows = w->hi - w->lo;
-    }
-    hid_t fspace = H5Screate_simple(rank, dims, NULL);
-    hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, dcpl, H5P_DEFAULT);
-    if (w->spread) {
-        hsize_t start[3] = {(hsize_t)w->lo, 0, 0};
-        hsize_t count[3] = {(hsize_t)nrows, rank > 1 ? d1 : 1, rank > 2 ? d2 : 1};
-        if (nrows) H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL);
-        else H5Sselect_none(fspace);
-    } else {
-        select_rows(fspace, w->r, rank, dims);
-    }
-    hsize_t mdims = (hsize_t)nrows * per_row;
-    hsize_t one = 1;
-    hid_t mspace = H5Screate_simple(1, mdims ? &mdims : &one, NULL);
-    if (!mdims) H5Sselect_none(mspace);
-    /* every rank calls H5Dwrite (collective), with a dummy buffer if the
-     * move failed: w->bad then fails the whole file */
-    static const char dummy[64];
-    /* a rank with no rows has no buffer (NULL data) and nothing to write; a
-     * NULL buffer with rows is a failed move (already counted above) */
-    if (!data) {
-        H5Sselect_none(fspace);
-        H5Sselect_none(mspace);
-        if (nrows == 0 && !w->spread) data = dummy;
-    }
-    /* one contiguous block per rank: independent writes, one pwrite each,
-     * without the two-phase exchange of a collective write; chunked
-     * (filtered) datasets need the collective one */
-    const hid_t dxpl = w->spread && dcpl == H5P_DEFAULT ? w->dxpl_ind : w->dxpl;
-    if (dset < 0 || H5Dwrite(dset, type, mspace, fspace, dxpl, data ? data : dummy) < 0 ||
-        !data)
-        w->bad = 1;
-    H5Sclose(mspace);
-    H5Sclose(fspace);
-    if (dset >= 0) H5Dclose(dset);
-    free(block);
-    write_progress(w, name);
-}
+#include "output_priv.h"
 
 static void write_rows(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
                        hsize_t d1, hsize_t d2, const void *data)
 {
-    write_rows_dcpl(w, loc, name, type, rank, d1, d2, data, H5P_DEFAULT);
-}
-
-/* Trajectories are large and smooth: chunked (64 particles x up to 1024
- * samples), with byte shuffle + deflate at the run file's level ([output]
- * compression, default 1), which parallel HDF5 applies in collective writes. */
-static hid_t trajectory_dcpl(const struct gcp_results *r, int64_t total, int rank, int level)
-{
-    hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
-    if (total == 0) return dcpl;
-    hsize_t chunk[3] = {(hsize_t)(total < 64 ? total : 64),
-                        (hsize_t)(r->S < 1024 ? r->S : 1024), 3};
-    H5Pset_chunk(dcpl, rank, chunk);
-    if (level > 0 && H5Zfilter_avail(H5Z_FILTER_DEFLATE)) {
-        H5Pset_shuffle(dcpl);
-        H5Pset_deflate(dcpl, (unsigned)level);
-    }
-    return dcpl;
-}
-
-/* A small dataset written by rank 0 alone (others select nothing). */
-static void write_rank0(struct writer *w, hid_t loc, const char *name, hid_t type, hsize_t n,
-                        const void *data, int me)
-{
-    hid_t fspace = H5Screate_simple(1, &n, NULL);
-    hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    hid_t mspace = H5Screate_simple(1, &n, NULL);
-    if (me != 0) {
-        H5Sselect_none(fspace);
-        H5Sselect_none(mspace);
-    }
-    if (dset < 0 || H5Dwrite(dset, type, mspace, fspace, w->dxpl, data) < 0) w->bad = 1;
-    H5Sclose(mspace);
-    H5Sclose(fspace);
-    if (dset >= 0) H5Dclose(dset);
+    gcp_writer_rows(w, loc, name, type, rank, d1, d2, data, H5P_DEFAULT);
 }
 
 static void attr_str(struct writer *w, hid_t loc, const char *name, const char *value)
@@ -379,13 +133,13 @@ static void write_trajectories(struct writer *w)
     const struct gcp_results *r = w->r;
     hid_t g = group(w, w->file, "trajectories");
     const hsize_t S = (hsize_t)r->S;
-    hid_t d2 = trajectory_dcpl(r, w->total, 2, w->compression);
-    hid_t d3 = trajectory_dcpl(r, w->total, 3, w->compression);
-    write_rows_dcpl(w, g, "t", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_t, d2);
-    write_rows_dcpl(w, g, "x", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_x, d3);
-    if (r->gc || r->hybrid) write_rows_dcpl(w, g, "ppar", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_ppar, d2);
-    if (!r->gc) write_rows_dcpl(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u, d3);
-    if (r->hybrid) write_rows_dcpl(w, g, "mode", H5T_NATIVE_INT8, 2, S, 0, r->traj_mode, d2);
+    hid_t d2 = gcp_writer_trajectory_dcpl(r, w->total, 2, w->compression);
+    hid_t d3 = gcp_writer_trajectory_dcpl(r, w->total, 3, w->compression);
+    gcp_writer_rows(w, g, "t", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_t, d2);
+    gcp_writer_rows(w, g, "x", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_x, d3);
+    if (r->gc || r->hybrid) gcp_writer_rows(w, g, "ppar", H5T_NATIVE_DOUBLE, 2, S, 0, r->traj_ppar, d2);
+    if (!r->gc) gcp_writer_rows(w, g, "u", H5T_NATIVE_DOUBLE, 3, S, 3, r->traj_u, d3);
+    if (r->hybrid) gcp_writer_rows(w, g, "mode", H5T_NATIVE_INT8, 2, S, 0, r->traj_mode, d2);
     H5Pclose(d2);
     H5Pclose(d3);
     write_rows(w, g, "count", H5T_NATIVE_INT64, 1, 0, 0, r->traj_count);
@@ -648,8 +402,8 @@ static void write_timing(struct writer *w, MPI_Comm comm, int me, int nranks)
     } else {
         MPI_Allgather(&r->rank_cpu, 1, MPI_DOUBLE, rank_cpu, 1, MPI_DOUBLE, comm);
         MPI_Allgather(&r->n, 1, MPI_INT64_T, rank_n, 1, MPI_INT64_T, comm);
-        write_rank0(w, g, "rank_cpu_seconds", H5T_NATIVE_DOUBLE, (hsize_t)nranks, rank_cpu, me);
-        write_rank0(w, g, "rank_particles", H5T_NATIVE_INT64, (hsize_t)nranks, rank_n, me);
+        gcp_writer_rank0(w, g, "rank_cpu_seconds", H5T_NATIVE_DOUBLE, (hsize_t)nranks, rank_cpu, me);
+        gcp_writer_rank0(w, g, "rank_particles", H5T_NATIVE_INT64, (hsize_t)nranks, rank_n, me);
         /* load imbalance (max - mean) / mean of the ranks' busy CPU seconds:
          * 0 is perfect; the share of the run the busiest rank kept the others waiting */
         double mx = 0.0, sum = 0.0;
@@ -817,10 +571,10 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     int64_t runs = 0;
     for (int64_t k = 0; k < r->n; k++) runs += k == 0 || r->id[k] != r->id[k - 1] + 1;
     MPI_Allreduce(MPI_IN_PLACE, &runs, 1, MPI_INT64_T, MPI_MAX, comm);
-    if (nranks > 1 && runs > spread_runs()) spread_plan(&w);
+    if (nranks > 1 && runs > gcp_writer_spread_runs()) gcp_writer_spread_plan(&w);
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
     if (w.bad) {
-        spread_free(&w);
+        gcp_writer_spread_free(&w);
         return gcp_error_set(err, GCP_ERR_STATE,
                              "%s: the ranks' rows are not particles 0..%lld each once (or out of "
                              "memory): nothing written",
@@ -840,14 +594,14 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     if (any_bad) {
         if (w.file >= 0) H5Fclose(w.file);
         if (me == 0) remove(tmp);
-        spread_free(&w);
+        gcp_writer_spread_free(&w);
         return gcp_error_set(err, GCP_ERR_IO, "%s: cannot create '%s'", sc->output, tmp);
     }
     const int64_t need = size_bound(r, sc->total, comm);
     const int nospace = reserve_space(tmp, need, comm);
     if (nospace) {
         H5Fclose(w.file);
-        spread_free(&w);
+        gcp_writer_spread_free(&w);
         if (me == 0) remove(tmp);
         struct statvfs vfs;
         char dir[1100];
@@ -877,7 +631,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
 
     H5Pclose(w.dxpl);
     H5Pclose(w.dxpl_ind);
-    spread_free(&w);
+    gcp_writer_spread_free(&w);
     if (H5Fclose(w.file) < 0) w.bad = 1;
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
     int renamed = 0, code = 0;

@@ -174,7 +174,8 @@ static void restore(struct gcp_engine *e)
     const size_t n = a->n;
     double *const from[] = {a->x, a->y, a->z, a->ux, a->uy, a->uz, a->ppar, a->mu, a->t};
     double *const to[] = {b->x, b->y, b->z, b->ux, b->uy, b->uz, b->ppar, b->mu, b->t};
-    for (size_t k = 0; k < sizeof from / sizeof from[0]; k++) memcpy(to[k], from[k], n * sizeof(double));
+    for (size_t k = 0; k < sizeof from / sizeof from[0]; k++)
+        memcpy(to[k], from[k], n * sizeof(double));
     memcpy(b->status, a->status, n * sizeof *b->status);
     memcpy(b->steps, a->steps, n * sizeof *b->steps);
     memcpy(b->index, a->index, n * sizeof *b->index);

@@ -31,6 +31,11 @@ int gcp_scene_hybrid_keys(struct gcp_scene *sc, struct gcp_section *s, struct gc
  * (file, line, key). */
 int gcp_sweep_spec_parse(struct gcp_scene *sc, struct gcp_run_file *rf, struct gcp_error *err);
 
+/* A full-orbit state standing for particle id in period estimates
+ * (scene_states.c): its own, or for a given guiding centre one at X. */
+void gcp_scene_period_state(const struct gcp_scene *s, int64_t id, int *pop, double x[3],
+                            double u[3]);
+
 struct gcp_block;
 struct gcp_hybrid;
 struct gcp_results;

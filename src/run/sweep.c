@@ -140,11 +140,10 @@ static void phase_watch(const struct gcp_block *b, double t, void *ctx)
     }
 }
 
-/* One push of population k of sc: method p, step and steps (o->dt,
- * o->nsteps), tolerance o->tolerance, the observer on `evts` events (0:
- * none), the gyrophase watcher pt (or NULL).  repeats > 0: timed (out->cpu),
- * see below.  The finals go to out; with evts, the invariant measures to
- * inv.  0, or a negative code with err set. */
+/* One push of a population: the method, its step and steps (o.dt,
+ * o.nsteps) and tolerance (o.tolerance), the observer on `evts` events (0:
+ * none), the gyrophase watcher pt (or NULL), and timing repeats (0:
+ * untimed). */
 struct pass {
     const struct gcp_pusher_type *p;
     struct gcp_push_opts o;
@@ -153,6 +152,11 @@ struct pass {
     int repeats;
 };
 
+/* Pushes population k of sc as pass ps asks, through the engine of a run
+ * of the scene with that method, step, tolerance and observer.  The finals
+ * go to out (out->cpu: the push's CPU seconds, the best of the batches when
+ * ps->repeats > 0); with ps->evts, the invariant measures to inv.  0, or a
+ * negative code with err set. */
 static int push_pass(const struct gcp_scene *sc, size_t k, const struct pass *ps,
                      struct gcp_sweep_finals *out, struct gcp_sweep_inv *inv,
                      struct gcp_error *err)

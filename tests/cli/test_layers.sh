@@ -25,8 +25,10 @@ say() { echo "test_layers: $*" >&2; fail=1; }
 
 # "file -> included" pairs allowed for now: fields/grid_io.c reading and
 # writing HDF5 grid files (to move to the io layer, issue 12 step 2); the
-# driver filling the I/O layer's gcp_results (io.h: issue 12's "one driver").
+# engine (the driver's and the sweep's) filling the I/O layer's gcp_results.
 KNOWN="src/run/driver.c->gcpush/io.h
+src/run/engine.c->gcpush/io.h
+src/run/sweep.c->gcpush/io.h
 src/run/driver_hybrid.c->gcpush/io.h
 fields/grid_io.c->hdf5.h"
 
