@@ -11,13 +11,19 @@
  * read as fixed 16-character fields: negative numbers may run together
  * ("-1.0e+00-2.0e+00"), so splitting on white space would be wrong.
  *
- * Field.  psi(R, Z) is the interpolating bicubic B-spline of psirz (C2,
- * grid_priv.h); F = R B_phi is the cubic spline of fpol on the uniform psi
- * grid simag .. sibry, evaluated at psi_N = (psi - simag)/(sibry - simag);
+ * Field.  psi(R, Z) is the interpolating biquintic B-spline of psirz (C4,
+ * grid_priv.h); F = R B_phi is the quintic spline of fpol on the uniform psi
+ * grid simag .. sibry (q and pres likewise), evaluated at psi_N = (psi - simag)/(sibry - simag);
  * outside the plasma (psi_N > 1, or Z outside the Z range of the boundary
  * polygon: the private-flux region below an X-point also has psi_N < 1) F
  * is the boundary value fpol(nw), the vacuum R B_phi.  B is continuous
  * there; grad B jumps with F' (the edge current), as it physically does.
+ * Why C4: grad B is psi's second derivatives, and the guiding-centre flow
+ * holds grad B; the symplectic methods' one-step map (and its Jacobian)
+ * then holds psi's third derivatives, which a C2 bicubic spline makes jump
+ * at every cell boundary (gc-gl4 lost its order and its energy jumped
+ * there: tests/unit/test_gc_symplectic_flux.c).  The quintic spline keeps
+ * them continuous; psi's error is O(h^6) instead of O(h^4).
  *
  * Signs (COCOS, Sauter & Medvedev, Comput. Phys. Commun. 184 (2013) 293).
  * For psi in Wb/rad (COCOS 1..8), with sigma_Bp, sigma_RphiZ, sigma_rhothetaphi
@@ -308,12 +314,12 @@ int gcp_field_eqdsk_load(const char *path, int cocos, struct gcp_field **out,
         const double x0[2] = {in->rleft, in->zmid - 0.5 * in->zdim};
         const double hh[2] = {in->rdim / (double)(nw - 1), in->zdim / (double)(nh - 1)};
         const double *d1[1] = {psirz};
-        if ((rc = gcp_spl_build(&e->psi, 2, GCP_SPL_CUBIC, n2, x0, hh, 1, d1, err))) goto fail;
+        if ((rc = gcp_spl_build(&e->psi, 2, GCP_SPL_QUINTIC, n2, x0, hh, 1, d1, err))) goto fail;
         e->Rmin = 1e-9 * hh[0];
         const size_t n1[1] = {NW};
         const double p0[1] = {0.0}, ph[1] = {1.0};
         const double *dp[3] = {fpol, qpsi, pres};
-        if ((rc = gcp_spl_build(&e->prof, 1, GCP_SPL_CUBIC, n1, p0, ph, 3, dp, err))) goto fail;
+        if ((rc = gcp_spl_build(&e->prof, 1, GCP_SPL_QUINTIC, n1, p0, ph, 3, dp, err))) goto fail;
     }
     struct gcp_field *f = gcp_field_alloc(&gcp_field_eqdsk, 0);
     if (!f) {
@@ -434,7 +440,7 @@ static int eqdsk_psi(const struct gcp_field *f, const double x[3], double *psi)
 
 const struct gcp_field_type gcp_field_eqdsk = {
     .name = "eqdsk",
-    .doc = "tokamak equilibrium from a G-EQDSK file (psi bicubic, F(psi) spline): file, [cocos]",
+    .doc = "tokamak equilibrium from a G-EQDSK file (psi biquintic, F(psi) spline): file, [cocos]",
     .eval = eqdsk_eval,
     .eval_block = eqdsk_eval_block,
     .destroy = eqdsk_destroy,
@@ -474,7 +480,7 @@ double gcp_field_eqdsk_q(const struct gcp_field *f, double psiN) { return eqdsk_
 double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 0, psiN); }
 
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
- * (fields/flux_priv.h), from the same bicubic spline as eval. */
+ * (fields/flux_priv.h), from the same biquintic spline as eval. */
 #include "flux_priv.h"
 
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6])

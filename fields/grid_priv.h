@@ -21,6 +21,16 @@
  * the end cells (the end slopes are O(h^4) accurate).  Derivatives are the
  * analytic derivatives of the same piecewise polynomial.
  *
+ * Quintic: the interpolating quintic B-spline, C4 across cells, for fields
+ * whose second derivatives enter a Hamiltonian's gradient (psi of an
+ * equilibrium: grad B is psi's second derivatives, so a C2 psi leaves
+ * kinks in the guiding-centre flow).  Coefficients c_{-2} .. c_{n+1}:
+ *   (c_{i-2} + 26 c_{i-1} + 66 c_i + 26 c_{i+1} + c_{i+2}) / 120 = f_i
+ * and four end conditions: the spline's h f' and h^2 f'' at the end nodes
+ * equal the 7-point one-sided differences (sixth- and fifth-order), a
+ * banded system solved by LU once per axis.  Needs n >= 7 nodes.
+ * Error O(h^6) in the value, O(h^{6-k}) in the k-th derivative.
+ *
  * Linear: the multilinear interpolant of the node values (C0; its gradient
  * is the exact, piecewise constant, gradient of that interpolant).
  *
@@ -38,31 +48,32 @@
 
 #define GCP_SPL_MAXCOMP 8
 
-enum gcp_spl_kind { GCP_SPL_CUBIC = 0, GCP_SPL_LINEAR = 1 };
+enum gcp_spl_kind { GCP_SPL_CUBIC = 0, GCP_SPL_LINEAR = 1, GCP_SPL_QUINTIC = 2 };
 
 struct gcp_spl {
     int nd;                 /* axes: 1, 2 or 3 */
     int kind;               /* enum gcp_spl_kind */
     int ncomp;              /* scalar fields held */
     size_t n[3];            /* nodes per axis (1 for unused axes) */
-    size_t m[3];            /* stored points per axis: n + 2 (cubic), n (linear); 1 unused */
+    size_t m[3];            /* stored points per axis: n + 2 (cubic), n + 4 (quintic), n
+                             * (linear); 1 unused */
     size_t stride[3];       /* memory stride of each axis in coef */
     double x0[3];           /* [m] first node */
     double h[3];            /* [m] spacing */
     double inv_h[3];        /* [1/m] */
     double umax[3];         /* n - 1: the last node in grid units */
-    double *coef[GCP_SPL_MAXCOMP]; /* B-spline coefficients (cubic) or node values (linear) */
+    double *coef[GCP_SPL_MAXCOMP]; /* B-spline coefficients, or node values (linear) */
 };
 
 /* Builds the interpolant of ncomp fields given at the nodes (layout above);
  * data is only read.  Needs n >= 5 nodes on every used axis for the cubic
- * kind, n >= 2 for linear.  0 or GCP_ERR_NOMEM / GCP_ERR_VALUE (err set). */
+ * kind, n >= 7 for quintic, n >= 2 for linear.  0 or GCP_ERR_NOMEM / GCP_ERR_VALUE (err set). */
 int gcp_spl_build(struct gcp_spl *s, int nd, int kind, const size_t n[], const double x0[],
                   const double h[], int ncomp, const double *const data[], struct gcp_error *err);
 void gcp_spl_free(struct gcp_spl *s);
 
 /* Derivatives wanted from gcp_spl_eval: 0 value only, 1 value and first
- * derivatives, 2 also second derivatives (cubic only; zero for linear). */
+ * derivatives, 2 also second derivatives (zero for linear). */
 struct gcp_spl_out {
     double f;        /* value */
     double d[3];     /* df/dx_a [1/m] */
@@ -75,9 +86,9 @@ struct gcp_spl_out {
  * A NaN coordinate counts as outside. */
 struct gcp_spl_loc {
     size_t base;        /* offset of the first coefficient of the stencil */
-    double w[3][4];     /* weights per axis */
-    double dw[3][4];    /* d/dx of the weights [1/m] */
-    double ddw[3][4];   /* d2/dx2 [1/m^2] */
+    double w[3][6];     /* weights per axis (4 cubic, 6 quintic, 2 linear) */
+    double dw[3][6];    /* d/dx of the weights [1/m] */
+    double ddw[3][6];   /* d2/dx2 [1/m^2] */
 };
 int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct gcp_spl_loc *loc);
 

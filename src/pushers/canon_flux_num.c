@@ -17,13 +17,16 @@
  * X = X_axis + t(eta) e(eta), t' = -t (g.e')/(g.e)), with A = 0 on the axis
  * (the remaining gauge freedom A_eta + f(eta) fixed by regularity there).
  * R, Z, A on a uniform (rho, eta) grid, periodic in eta (padded by NPAD
- * nodes each side: the clamped end conditions of the cubic B-spline decay
- * like 0.27^k into the table, 0.27^12 ~ 1.6e-7 of an O(h^4) slope error)
- * are interpolated by the C2 bicubic spline of fields/grid_priv.h; its
- * derivatives are the chart's, so the chart is exactly canonical in its own
- * coordinates, and approximates the true one-form to the tabulation error
- * (O(h^4) in R, Z, A; O(h^3) in dX/drho, so h_s = b . dX/drho = O(h^3),
- * measured in tests/unit/test_canon_flux.c).
+ * nodes each side: the end conditions of the quintic B-spline decay like
+ * 0.43^k into the table, 0.43^40 ~ 2e-15) are interpolated by the C4
+ * biquintic spline of fields/grid_priv.h; its derivatives are the chart's,
+ * so the chart is exactly canonical in its own coordinates, and
+ * approximates the true one-form to the tabulation error (O(h^6) in R, Z,
+ * A; O(h^5) in dX/drho, so h_s = b . dX/drho = O(h^5), measured in
+ * tests/unit/test_canon_flux.c).  C4 and not C2: the Hamiltonian's
+ * gradient holds the table's second derivatives (X_se, X_ee in h_eta's
+ * derivatives), so the one-step map's Jacobian holds its third, which a
+ * bicubic table makes jump at every cell boundary.
  *
  * Domain: rho <= rho_max = sqrt(psiN_max) (default psi_N <= 0.9: the chart
  * degenerates at the separatrix, where grad psi -> 0 at the X-point); a
@@ -46,7 +49,7 @@
 
 #define NRHO 128
 #define NETA 512
-#define NPAD 12       /* periodic padding each side */
+#define NPAD 40       /* periodic padding each side */
 #define PSIN_MAX 0.9  /* edge of the chart in psi_N */
 #define RHO_REF 0.6
 
@@ -317,7 +320,7 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
     const double x0[2] = {0.0, -GCP_PI - NPAD * deta}, hh[2] = {drho, deta};
     const double *data[3] = {TR, TZ, TA};
     struct gcp_error err = {0};
-    rc = gcp_spl_build(&n->spl, 2, GCP_SPL_CUBIC, nsz, x0, hh, 3, data, &err);
+    rc = gcp_spl_build(&n->spl, 2, GCP_SPL_QUINTIC, nsz, x0, hh, 3, data, &err);
     free(tab);
     if (rc) {
         snprintf(why, whylen, "flux chart table: %s", err.msg);

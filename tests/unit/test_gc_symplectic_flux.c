@@ -74,7 +74,7 @@ static void sys_tokamak(struct fsys *S)
 {
     S->name = "tokamak p+ 100 keV";
     S->f = gcp_field_tokamak_create(2.5, 3.0, 1.0, 1.1, 3.5);
-    S->fd = 1e-4, S->bound = 2e-8;
+    S->fd = 3e-4, S->bound = 3e-9;
     fsys_start(S, GCP_E_CHARGE, GCP_M_PROTON, 1e5 * GCP_E_CHARGE, 0.3, 3.5, 0.0);
 }
 
@@ -83,7 +83,7 @@ static void sys_tokamak(struct fsys *S)
 static void sys_eqdsk(struct fsys *S)
 {
     S->name = "DIII-D p+ 50 keV";
-    S->fd = 3e-5, S->bound = 5e-8;
+    S->fd = 3e-4, S->bound = 3e-9;
     struct gcp_error err = {0};
     cr_assert_eq(gcp_field_eqdsk_load(GFILE, 0, &S->f, &err), 0, "%s", err.msg);
     char why[300];
@@ -117,19 +117,25 @@ static int one_step(const struct fsys *S, const struct gcp_pusher_type *p, doubl
     return 0;
 }
 
-/* |M^T J M - J| by central differences, each entry weighed by s_i s_j /
- * sqrt(S_pair(i) S_pair(j)) (test_gc_symplectic.c's scale-free residual). */
+/* |M^T J M - J|, each entry weighed by s_i s_j / sqrt(S_pair(i) S_pair(j))
+ * (test_gc_symplectic.c's scale-free residual), M by fourth-order central
+ * differences: M = (4 D(e) - D(2e)) / 3, D(e) = (z1(z0 + e) - z1(z0 - e)) / 2e
+ * (the e^2 terms cancel; error e^4 |z1^(5)| / 30). */
 static double sympl_residual(const struct fsys *S, const struct gcp_pusher_type *p, double h,
                              const double z0[4], const double aux0[2], const double sc[4])
 {
     double M[4][4];
     for (int j = 0; j < 4; j++) {
         double zp[4], zm[4], z1p[4], z1m[4];
-        memcpy(zp, z0, sizeof zp), memcpy(zm, z0, sizeof zm);
-        const double e = S->fd * sc[j];
-        zp[j] += e, zm[j] -= e;
-        if (one_step(S, p, h, zp, aux0, z1p) || one_step(S, p, h, zm, aux0, z1m)) return NAN;
-        for (int i = 0; i < 4; i++) M[i][j] = (z1p[i] - z1m[i]) / (zp[j] - zm[j]);
+        double D[2][4]; /* central differences over +-e and +-2e */
+        for (int w = 0; w < 2; w++) {
+            memcpy(zp, z0, sizeof zp), memcpy(zm, z0, sizeof zm);
+            const double e = (w + 1) * S->fd * sc[j];
+            zp[j] += e, zm[j] -= e;
+            if (one_step(S, p, h, zp, aux0, z1p) || one_step(S, p, h, zm, aux0, z1m)) return NAN;
+            for (int i = 0; i < 4; i++) D[w][i] = (z1p[i] - z1m[i]) / (zp[j] - zm[j]);
+        }
+        for (int i = 0; i < 4; i++) M[i][j] = (4.0 * D[0][i] - D[1][i]) / 3.0;
     }
     static const double J[4][4] = {{0, 0, 1, 0}, {0, 0, 0, 1}, {-1, 0, 0, 0}, {0, -1, 0, 0}};
     const double act[2] = {sc[0] * sc[2], sc[1] * sc[3]};
@@ -147,18 +153,26 @@ static double sympl_residual(const struct fsys *S, const struct gcp_pusher_type 
 /* h = T_b / N, N = 25 .. 200.  Scales: 1 rad for phi and eta; for the
  * momenta their change when p_par changes by the whole momentum p (a step
  * relative to q psi, which dominates P, would be a 1e-3 change of p_par).
- * The floor of the check: truncation (fd)^2 and round-off of the map (GL
- * Newton stops at <= 1e-12 of its scales when it stalls; p_par comes from
- * P - q A with a cancellation of 1e2..1e3) / fd.
- *   Tokamak (analytic, smooth): fd = 1e-4, floor ~1e-8; measured <= 6.8e-9
- *   for gc-gl2/gl4 at every N; bound 2e-8.
- *   DIII-D (psi a C2 bicubic spline, the chart a C2 bicubic table): the
- *   one-step map is only C2, so the central difference has an O(fd) error
- *   where the orbit crosses cell boundaries (it grows with h: with fd = 1e-4
- *   the residual is 1.4e-7 at N = 25 and 1.4e-8 at N = 200); fd = 3e-5
- *   balances it with round-off: measured <= 1.6e-8; bound 5e-8.
- * gc-rk4 (h^5) is > 1e-5 at N = 25 (measured 0.26 and 0.51) and falls >= 16x
- * per halving (measured 24..47) while above the bound: the test can fail. */
+ * The floor of the check is truncation + round-off of the map / fd:
+ *   - round-off: the map's noise is delta ~ 1e-13 of the scales (measured:
+ *     spread of z1 over 1e-8 steps; it is the P_eta row, P_eta = q A_eta +
+ *     p_par h_eta cancelling by ~1e2), amplified by the stencil's
+ *     (8 + 8 + 1 + 1)/12 / fd = 1.5 / fd: 5e-10 per entry at fd = 3e-4;
+ *   - truncation: fd^4 |z1^(5)| / 30 (second-order differences at fd = 1e-4
+ *     left 14 fd^2 = 1.4e-7 in DIII-D, 0.6 fd^2 in the tokamak, which forced
+ *     fd ~ 1e-5 and a round-off floor of ~1e-8);  measured < 1e-9 at
+ *     fd = 1e-3, so < 1e-11 at 3e-4.
+ *   The stencil must not straddle a cell boundary where the map's second
+ *   derivative jumps: the map's Jacobian holds d^2 H, i.e. third
+ *   derivatives of psi and of the chart's table; with the C2 bicubic
+ *   splines of before, a stencil of 1e-3 crossed such a boundary (residual
+ *   1e-6 .. 2e-5), which is why psi (fields/eqdsk.c) and the chart table
+ *   (canon_flux_num.c) are C4 quintic splines.
+ * Measured at fd = 3e-4 for gc-gl2/gl4 at N = 25 .. 200: tokamak <= 6.9e-10,
+ * DIII-D <= 7.0e-10 (the bicubic splines and a second-order difference gave
+ * 3.2e-8); bound 3e-9 (3x below the issue's 1e-8, 4x above the measured).
+ * gc-rk4 (h^5) is > 1e-5 at N = 25 and falls >= 16x per halving while above
+ * the bound: the test can fail. */
 static void sympl_check(struct fsys *S)
 {
     double X[3] = {S->X[0], S->X[1], S->X[2]}, pp = S->ppar, t = 0.0;
@@ -214,8 +228,11 @@ Test(gc_symplectic_flux, eqdsk_one_step_map_is_symplectic, .timeout = 120)
  * tolerance 1e-13 (the reference: an independent adaptive method, its error
  * ~1e-12 of the orbit, far below the errors measured).  The error ratios at
  * halved h approach 2^p: 4 for gc-gl2, 16 for gc-gl4, asserted within 10%
- * at N = 100 -> 200 (measured 4.00 and 15.99; N = 50 -> 100 logged).
- * The analytic tokamak only: in DIII-D see eqdsk_accuracy below. */
+ * at the last halving N0 -> 2 N0 (N0 / 2 -> N0 logged).
+ *   Tokamak, N0 = 100: measured 4.00 and 15.99.
+ *   DIII-D, N0 = 200 (at N = 50 .. 200 gc-gl4 is not yet asymptotic: ratios
+ *   66, 28): measured 4.03 and 15.79.  With the bicubic psi of before there
+ *   was no power law at all (8.3e-4, 1.3e-2, 4.5e-3 m at N = 50 .. 200). */
 static double end_error(const struct fsys *S, const struct gcp_pusher_type *p, double h, int n,
                         const double Xref[3])
 {
@@ -225,7 +242,7 @@ static double end_error(const struct fsys *S, const struct gcp_pusher_type *p, d
     return hypot(hypot(X[0] - Xref[0], X[1] - Xref[1]), X[2] - Xref[2]);
 }
 
-static void order_check(struct fsys *S)
+static void order_check(struct fsys *S, int N0)
 {
     double Xr[3] = {S->X[0], S->X[1], S->X[2]}, pp = S->ppar, t = 0.0;
     /* dt = T_b / 200: its first trial step (dt = T_b would leave the domain,
@@ -238,11 +255,11 @@ static void order_check(struct fsys *S)
     const double want[] = {4.0, 16.0};
     for (int k = 0; k < 2; k++) {
         double prev = NAN;
-        for (int N = 50; N <= 200; N *= 2) {
+        for (int N = N0 / 2; N <= 2 * N0; N *= 2) {
             const double e = end_error(S, sym[k], S->Tb / N, N, Xr);
             cr_log_info("%-18s %-7s N %3d error %.3e m ratio %.2f", S->name, sym[k]->name, N, e,
                         prev / e);
-            if (N == 200)
+            if (N == 2 * N0)
                 cr_expect(fabs(prev / e / want[k] - 1) < 0.1, "%s %s: ratio %.2f, want %.0f",
                           S->name, sym[k]->name, prev / e, want[k]);
             prev = e;
@@ -254,7 +271,15 @@ Test(gc_symplectic_flux, tokamak_order, .timeout = 120)
 {
     struct fsys S;
     sys_tokamak(&S);
-    order_check(&S);
+    order_check(&S, 100);
+    fsys_free(&S);
+}
+
+Test(gc_symplectic_flux, eqdsk_order, .timeout = 120)
+{
+    struct fsys S;
+    sys_eqdsk(&S);
+    order_check(&S, 200);
     fsys_free(&S);
 }
 
@@ -280,8 +305,15 @@ static int lr_cb(double t, const double X[3], double ppar, void *vctx)
     return 0;
 }
 
-static void long_run(const struct fsys *S, const struct gcp_pusher_type *p, double h,
-                     int64_t nsteps, double *trend, double *range, double *maxP)
+struct lr_result {
+    double trend, range, maxP; /* fitted energy trend over the run, energy range, max |dP/P| */
+    double samples;            /* fixed-step methods: steps; gc-rk45: samples every h */
+};
+
+/* A run of duration nsteps h (fixed-step methods: nsteps steps; gc-rk45:
+ * its own steps at its default tolerance). */
+static struct lr_result long_run(const struct fsys *S, const struct gcp_pusher_type *p, double h,
+                                 int64_t nsteps)
 {
     struct lr_ctx c = {.S = S, .mc2 = S->k.m * GC_C * GC_C, .emin = INFINITY, .emax = -INFINITY};
     gcp_gc_energy(S->f, 0, S->k.q, S->k.m, S->X, S->ppar, S->k.mu, &c.H0);
@@ -291,89 +323,118 @@ static void long_run(const struct fsys *S, const struct gcp_pusher_type *p, doub
     const int st = gcp_gc_push(S->f, p, S->k.q, S->k.m, &o, &t, X, &pp, S->k.mu, lr_cb, &c);
     cr_assert_eq(st, GCP_ALIVE, "%s %s: status %d", S->name, p->name, st);
     const double slope = (c.n * c.ste - c.st * c.se) / (c.n * c.stt - c.st * c.st);
-    *trend = fabs(slope) * t;
-    *range = c.emax - c.emin;
-    *maxP = c.maxP;
+    const struct lr_result r = {fabs(slope) * t, c.emax - c.emin, c.maxP, c.n};
+    cr_log_info("%-18s %-7s %9.0f samples over %.0f bounces: energy range %.2e trend %.2e (%.1e "
+                "of range), P_phi %.1e",
+                S->name, p->name, r.samples, t / S->Tb, r.range, r.trend, r.trend / r.range,
+                r.maxP);
+    return r;
 }
 
-/* Tokamak banana, 25 steps per bounce (the coarse end of the issue's 20-50),
- * LR_STEPS = 2e5 steps = 8000 bounces per method (the issue asks 1e7: ~100 s
- * per run here, too long for make check on two shared cores).
+/* LR_STEPS steps of gc-gl2 and of gc-gl4 at LR_N = 25 steps per bounce (the
+ * coarse end of the issue's 20-50) in each flux field, and gc-rk4 (12x
+ * smaller steps: the cost ratio test_gc_symplectic.c uses) and gc-rk45 (its
+ * default tolerance) over the same time.  LR_STEPS is the one constant to
+ * raise toward the issue's 1e7: 3e5 steps (12000 bounces) take 44 s of CPU
+ * for the two tests together here (gc-gl2/gl4 ~70% of it; 105 s wall on
+ * the shared machine).
  * Energy: a symplectic method's kinetic-energy error oscillates with the
- * bounce and has no secular part; a least-squares line fitted over 8000
- * periods of a bounded signal of range A picks up ~A/8000 = 1.3e-4 A, plus
- * the round-off walk (1e-16 sqrt(2e5) ~ 5e-14 << A): the trend must be below
+ * bounce and has no secular part; a least-squares line fitted over 12000
+ * periods of a bounded signal of range A picks up ~A/12000 = 8e-5 A, plus
+ * the round-off walk (1e-16 sqrt(3e5) ~ 6e-14 << A): the trend must be below
  * 1e-3 A (the issue's bound).  P_phi: exact in exact arithmetic (H does not
  * depend on phi); each step adds the round-off of the chart's Newton
  * (~1e-16 of q psi): a random walk to ~1e-14; 1e-12 asserted.
- * The same test fails gc-rk4 at the same cost (12x smaller steps, the cost
- * ratio test_gc_symplectic.c uses): its energy error grows linearly
- * (trend ~ its range) and P_phi drifts. */
-#define LR_STEPS 200000
+ * gc-rk4 and gc-rk45 fail both: their energy error grows linearly (trend ~
+ * its range) and P_phi drifts. */
+#define LR_STEPS 300000
 #define LR_N 25
+
+static void nonsymplectic_drift(const struct fsys *S, double h)
+{
+    const struct lr_result r4 = long_run(S, &gcp_pusher_gc_rk4, h / 12, 12 * (int64_t)LR_STEPS);
+    cr_expect(r4.trend > 1e-3 * r4.range, "gc-rk4: no drift seen (trend %.2e, range %.2e)",
+              r4.trend, r4.range);
+    cr_expect(r4.maxP > 1e-12, "gc-rk4: P_phi %.2e", r4.maxP);
+    const struct lr_result r45 = long_run(S, &gcp_pusher_gc_rk45, h, LR_STEPS);
+    cr_expect(r45.trend > 1e-3 * r45.range, "gc-rk45: no drift seen (trend %.2e, range %.2e)",
+              r45.trend, r45.range);
+    cr_expect(r45.maxP > 1e-12, "gc-rk45: P_phi %.2e", r45.maxP);
+}
+
+/* Tokamak banana.  Measured (3e5 steps): gc-gl2 energy trend 1.7e-5 of its
+ * range, gc-gl4 9.6e-6, P_phi <= 2.4e-14; gc-rk4 trend 1.0 of its range,
+ * P_phi 6.9e-4; gc-rk45 1.0, 1.8e-3. */
 Test(gc_symplectic_flux, tokamak_long_run_energy_bounded_pphi_exact, .timeout = 300)
 {
     struct fsys S;
     sys_tokamak(&S);
     const struct gcp_pusher_type *sym[] = {&gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4};
     const double h = S.Tb / LR_N;
-    double trend, range, maxP;
     for (int k = 0; k < 2; k++) {
-        long_run(&S, sym[k], h, LR_STEPS, &trend, &range, &maxP);
-        cr_log_info("%-18s %-7s %d/bounce %d steps: energy range %.2e trend %.2e (%.1e of "
-                    "range), P_phi %.1e",
-                    S.name, sym[k]->name, LR_N, LR_STEPS, range, trend, trend / range, maxP);
-        cr_expect(trend < 1e-3 * range, "%s: energy trend %.2e, range %.2e", sym[k]->name, trend,
-                  range);
-        cr_expect(maxP < 1e-12, "%s: P_phi %.2e", sym[k]->name, maxP);
+        const struct lr_result r = long_run(&S, sym[k], h, LR_STEPS);
+        cr_expect(r.trend < 1e-3 * r.range, "%s: energy trend %.2e, range %.2e", sym[k]->name,
+                  r.trend, r.range);
+        cr_expect(r.maxP < 1e-12, "%s: P_phi %.2e", sym[k]->name, r.maxP);
     }
-    long_run(&S, &gcp_pusher_gc_rk4, h / 12, 12 * (int64_t)LR_STEPS, &trend, &range, &maxP);
-    cr_log_info("%-18s gc-rk4  %d/bounce %d steps: energy range %.2e trend %.2e (%.1e of "
-                "range), P_phi %.1e",
-                S.name, 12 * LR_N, 12 * LR_STEPS, range, trend, trend / range, maxP);
-    cr_expect(trend > 1e-3 * range, "gc-rk4: no drift seen (trend %.2e, range %.2e)", trend,
-              range);
-    cr_expect(maxP > 1e-12, "gc-rk4: P_phi %.2e", maxP);
+    nonsymplectic_drift(&S, h);
+    fsys_free(&S);
+}
+
+/* DIII-D trapped orbit: P_phi exact for gc-gl2/gl4 (measured <= 9.5e-15),
+ * drifting for gc-rk4 (7.6e-5) and gc-rk45 (2.1e-4), whose energy trends
+ * are 1.0 of their range.  The symplectic methods' energy is logged, not
+ * asserted: in this equilibrium it is not bounded in the issue's sense (see
+ * eqdsk_long_run_energy_bounded below; gc-gl2 2.8e-5 of its range, gc-gl4
+ * 1.5e-3 over these 3e5 steps). */
+Test(gc_symplectic_flux, eqdsk_long_run_pphi_exact, .timeout = 300)
+{
+    struct fsys S;
+    sys_eqdsk(&S);
+    const struct gcp_pusher_type *sym[] = {&gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4};
+    const double h = S.Tb / LR_N;
+    for (int k = 0; k < 2; k++) {
+        const struct lr_result r = long_run(&S, sym[k], h, LR_STEPS);
+        cr_expect(r.maxP < 1e-12, "%s: P_phi %.2e", sym[k]->name, r.maxP);
+    }
+    nonsymplectic_drift(&S, h);
     fsys_free(&S);
 }
 
 /* DIII-D: what gc-gl2/gl4 do not yet achieve there (disabled; it states
- * what a fix must pass).  Measured with this set-up (50 keV proton, psi_N =
- * 0.25, trapped), against gc-rk8pd at 1e-13 after one bounce and over
- * 2e4 steps:
- *   - order: gc-gl4 position errors 8.3e-4, 1.3e-2, 4.5e-3, 5.7e-4, 4.0e-5,
- *     3.3e-8 m at N = 50 .. 1600 (no power law), gc-rk4 3.7e-3 .. 1.4e-8 m
- *     with ratios ~16; max energy error over one bounce gc-gl4 6.3e-5,
- *     8.2e-6, 6.2e-7, 4.7e-8 at N = 200 .. 1600 against gc-rk4's 2.0e-7,
- *     1.1e-8, 3.2e-9, 2.0e-10.  The gc-gl4 energy jumps by ~6e-6 (N = 400)
- *     each time the orbit crosses a cell boundary of the file's 65 x 65 psi
- *     grid (Z = 0, 0.05 m, ...): psi is a C2 bicubic spline, so gradB, which
- *     dH contains, has kinks, and the canonical flow's second derivative
- *     jumps there; the same kinks cost gc-rk4, which works in X, far less.
- *     Not the chart table: on the analytic tokamak the same tabulated
- *     chart gives gc-gl4 energy errors 1e-8 (N = 100) and position within
- *     5e-8 m of the exact chart.
- *   - long runs (measured with the Gauss-Legendre predictor of i11a's
- *     e608072): at 25 steps per bounce gc-gl4 stops with STEP_FAILED after
- *     274 steps, gc-gl2 after 350; at 50, gc-gl4 after 850: the
- *     Gauss-Legendre Newton (gc_gauss.c) stalls at an update of ~1.1e-12 of
- *     its scales, just above its stall floor GL_FLOOR = 1e-12, for 40
- *     iterations (seen with the earlier predictor at 100 per bounce; with
- *     GL_FLOOR = 1e-10 those runs completed).  At 100 per bounce both run
- *     2e4 steps, P_phi exact, |energy error| up to 1.5e-3 (gl2), 3e-4 (gl4)
- *     sampled every 1000 steps. */
-Test(gc_symplectic_flux, eqdsk_accuracy, .timeout = 300, .disabled = true)
+ * what a fix must pass).  Measured with the C4 (biquintic) psi and chart:
+ * one-step symplecticity at the floor (7e-10), order 4 from N = 200 on, no
+ * Newton failure over 2e5 steps at 25 per bounce, P_phi to 1e-14; but the
+ * energy trend over the run, relative to its range, is
+ *   gc-gl2: 2.8e-5 (25 per bounce, 3e5 steps), 0.30 (50, 2e5 steps: the
+ *           energy walks off by 7% and the banana widens), 9.3e-4 (100, 1e5);
+ *   gc-gl4: 1.5e-3 (25, 3e5 steps), 1.5e-3 (50, 2e5), 2.4e-2 (100, 1e5;
+ *           range 1.6e-5).
+ * gc-gl4's one-bounce energy error at 25 per bounce is 1.5e-3 against
+ * 2e-6 in the analytic tokamak at the same resolution, made near the
+ * outboard midplane.  There the canonical flow has short-scale structure:
+ * along a gc-rk4 orbit (2000 samples per bounce) the fourth time derivative
+ * of P_eta, scaled by (T_b / 2 pi)^4 and P_eta's range, reaches 1e3 (the
+ * tokamak: ~1), and the second derivative of P_eta varies by a factor ~8
+ * with the period of the file's 5 cm psi grid in Z.  The cause is the
+ * interpolation of psi at the grid scale, not the data: the analytic
+ * tokamak's own psi sampled on a grid (the `grid` model, the tabulated
+ * chart, the orbit of tokamak_long_run_...) gives gc-gl4 at 25 per bounce
+ * an energy range of 7.9e-3 and a trend of 4.1e-3 of it with a bicubic
+ * psi on 65 x 65 nodes (3.75 cm), 1.7e-4 and 0.13 with a biquintic psi on
+ * the same nodes, 6.3e-5 and 2.9e-4 (bounded) with a biquintic psi on
+ * 129 x 129, against 1.8e-6 with the exact psi (4e4 steps each).  A psi of
+ * higher smoothness and accuracy at the file's resolution (a higher-degree
+ * or smoothing representation) is what a fix needs; not done. */
+Test(gc_symplectic_flux, eqdsk_long_run_energy_bounded, .timeout = 300, .disabled = true)
 {
     struct fsys S;
     sys_eqdsk(&S);
-    order_check(&S);
-    double trend, range, maxP;
     for (int k = 0; k < 2; k++) {
         const struct gcp_pusher_type *p = k ? &gcp_pusher_gc_gl4 : &gcp_pusher_gc_gl2;
-        long_run(&S, p, S.Tb / LR_N, LR_STEPS, &trend, &range, &maxP);
-        cr_expect(trend < 1e-3 * range, "%s: energy trend %.2e, range %.2e", p->name, trend,
-                  range);
-        cr_expect(maxP < 1e-12, "%s: P_phi %.2e", p->name, maxP);
+        const struct lr_result r = long_run(&S, p, S.Tb / LR_N, LR_STEPS);
+        cr_expect(r.trend < 1e-3 * r.range, "%s: energy trend %.2e, range %.2e", p->name,
+                  r.trend, r.range);
     }
     fsys_free(&S);
 }
