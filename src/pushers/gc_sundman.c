@@ -48,8 +48,8 @@
 #include "block_priv.h"
 #include "gc_gauss_priv.h"
 #include "gc_priv.h"
+#include "gc_sundman_priv.h"
 
-#define SD_A 0.25
 #define SD_LAND_MAXIT 12
 
 struct sd_lane {
@@ -79,9 +79,8 @@ static int sd_land(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct
     const double span = t_target - save.t;
     double dsk = ds * 0.5; /* first guess: below the nominal step */
     {
-        double Bm, dB[4], aux[2] = {L->aux[0][0], L->aux[0][1]};
-        if (C->chart.field_strength(&C->chart, k, L->z, aux, &Bm, dB) == 0)
-            dsk = span / pow(L->Bref / Bm, C->sundman_a);
+        double w, aux[2] = {L->aux[0][0], L->aux[0][1]};
+        if (gcp_sundman_w(C, k, L, aux, &w) == 0) dsk = span / w;
     }
     for (int it = 0; it < SD_LAND_MAXIT; it++) {
         *L = save;
@@ -120,13 +119,25 @@ static size_t sd_retire(struct gcp_block *b, struct sd_lane *S, size_t n)
     return n;
 }
 
+int gcp_sundman_lane_init(const struct gl_ctx *C, const struct gcp_block *b, size_t i, double t0,
+                          struct gl_lane *L)
+{
+    const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
+    int st = gcp_gl_init(C, b, i, t0, L);
+    double H = NAN, dH[4], Bm = NAN, dB[4];
+    if (!st) st = C->chart.hamiltonian(&C->chart, &k, L->z, L->aux[0], &H, dH);
+    if (!st) st = C->chart.field_strength(&C->chart, &k, L->z, L->aux[0], &Bm, dB);
+    L->t = t0, L->pt = -H, L->Bref = Bm;
+    return st;
+}
+
 static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_push_opts *o, const struct gcp_sampler *s,
                          const struct gl_tableau *tab)
 {
     size_t n = gcp_gc_block_begin(b, f, o);
     if (n == 0) return 0;
-    struct gl_ctx C = {tab, {0}, SD_A};
+    struct gl_ctx C = {tab, {0}, GCP_SUNDMAN_A};
     struct sd_lane *S = NULL;
     if (gcp_canon_chart_create(f, &C.chart, NULL, 0) == 0 && C.chart.field_strength)
         S = malloc(b->n * sizeof *S);
@@ -137,14 +148,8 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
         return b->n_active;
     }
     for (size_t i = 0; i < n; i++) {
-        struct gl_lane *L = &S[i].L;
         S[i].steps = 0;
-        const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
-        int st = gcp_gl_init(&C, b, i, o->t0, L);
-        double H = NAN, dH[4], Bm = NAN, dB[4];
-        if (!st) st = C.chart.hamiltonian(&C.chart, &k, L->z, L->aux[0], &H, dH);
-        if (!st) st = C.chart.field_strength(&C.chart, &k, L->z, L->aux[0], &Bm, dB);
-        L->t = o->t0, L->pt = -H, L->Bref = Bm;
+        const int st = gcp_sundman_lane_init(&C, b, i, o->t0, &S[i].L);
         if (st) b->status[i] = st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
     }
     n = sd_retire(b, S, n);
@@ -159,10 +164,10 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
             int st = 0;
             while (!st && L->t < t_target) {
                 /* the next step's dt ~ w ds: land when it would reach the target */
-                double Bm, dB[4], aux[2] = {L->aux[0][0], L->aux[0][1]};
-                st = C.chart.field_strength(&C.chart, &k, L->z, aux, &Bm, dB);
+                double w, aux[2] = {L->aux[0][0], L->aux[0][1]};
+                st = gcp_sundman_w(&C, &k, L, aux, &w);
                 if (st) break;
-                const double dt_next = ds * pow(L->Bref / Bm, C.sundman_a);
+                const double dt_next = ds * w;
                 if (L->t + 1.5 * dt_next >= t_target)
                     st = sd_land(&C, &k, L, t_target, ds);
                 else
@@ -218,7 +223,7 @@ static size_t sd4_advance(struct gcp_block *b, const struct gcp_field *f,
 const struct gcp_pusher_type gcp_pusher_gc_gl2_sundman = {
     .name = "gc-gl2-sundman",
     .doc = "guiding centre, gc-gl2 with symplectic adaptive steps (Sundman transformation, "
-           "dt ~ 1/|B|; dt = the step at the start)",
+           "dt ~ |B|^-1/4; dt = the step at the start)",
     .order = 2,
     .kind = GCP_GUIDING_CENTRE,
     .advance = sd2_advance,
@@ -228,7 +233,7 @@ const struct gcp_pusher_type gcp_pusher_gc_gl2_sundman = {
 const struct gcp_pusher_type gcp_pusher_gc_gl4_sundman = {
     .name = "gc-gl4-sundman",
     .doc = "guiding centre, gc-gl4 with symplectic adaptive steps (Sundman transformation, "
-           "dt ~ 1/|B|; dt = the step at the start)",
+           "dt ~ |B|^-1/4; dt = the step at the start)",
     .order = 4,
     .kind = GCP_GUIDING_CENTRE,
     .advance = sd4_advance,
