@@ -182,7 +182,7 @@ static int sd_rates(const struct sd_sys *S, const struct gl_ctx *C, struct gl_la
  * each crossing located by cubic Hermite interpolation of (chi, t, phi) in
  * the step variable (error O(h^4) at a crossing, not accumulated: over 10
  * bounces it is below the periods' own errors -- measured, 40 bounces give
- * the same step counts to 2 digits).  Returns the steps taken, or -1 when a
+ * the same period errors to 2 digits).  Returns the steps taken, or -1 when a
  * step fails (the Newton solve at a mirror point for too coarse a step). */
 static int64_t sd_periods(const struct sd_sys *S, int sundman, double h, int nb, double *Td,
                           double *Tb)
@@ -242,20 +242,21 @@ static void sd_fewest(const struct sd_sys *S, int sundman, const double *rel, in
  * Measured (deterministic; steps fixed / steps sundman):
  *   mirror 63 deg: 1.10x at 1e-4, 0.94x at 1e-6;
  *   mirror 75 deg: 2.74x at 1e-4, 1.16x at 1e-6.
- * Where the gain comes from: a fixed step coarser than ~60 (63 deg) or ~230
+ * Where the gain comes from: a fixed step coarser than ~60 (63 deg) or ~190
  * (75 deg) steps per bounce fails its Newton solve at the mirror point,
  * where the field changes over the shortest time, so at 1e-4 the fixed step
  * is set by the mirror point, not by the accuracy; the transformed step
- * shrinks there and runs from ~30 steps per bounce.  Below 1e-5 the
- * accuracy decides, and a period (a bounce average) gains less from the
- * adaptation than the orbit's phase: the local error of one step is 100x
- * larger at the mirror point than at the equator (w = |B|^-1/4 evens it
- * out), but the period error of a symplectic method is the bounce average of
- * its modified Hamiltonian, spread over the orbit (see gc_sundman.c).
+ * shrinks there and runs from ds = T_b/30 (~55 steps per bounce).  Below
+ * 1e-5 the accuracy decides, and a period (a bounce average) gains less
+ * from the adaptation than the orbit's phase: the local error of one step
+ * is ~400x larger at a 63-deg mirror point than at the equator (w = |B|^-1/4
+ * evens it out), but the period error of a symplectic method is the bounce
+ * average of its modified Hamiltonian, spread over the orbit (see
+ * gc_sundman.c).
  * The issue's 3x for the drift period is therefore not reached (2.7x at
  * best).  Asserted, as regression bounds ~10% under the measured ratios:
  * >= 2.4x at 1e-4 and >= 1.0x at 1e-6 at 75 deg, >= 0.85x at 63 deg (the
- * adaptive steps cost no more than ~5% there).  The 1e-4 ratio at 75 deg
+ * adaptive steps cost no more than ~6% there).  The 1e-4 ratio at 75 deg
  * moves with the coarsest step at which the fixed method's Newton solve
  * still converges at the mirror point (gc_gauss.c). */
 Test(gc_sundman, drift_period_fewer_steps, .timeout = 120)
