@@ -131,7 +131,24 @@ static int cf_from_canon(const struct gcp_canon_chart *c, const struct gcp_gc_co
     return 0;
 }
 
-/* |B| at z and its derivatives d|B|/d(psi, chi) (see the header). */
+/* |B| and its derivatives d|B|/d(psi, chi) (see the header) from the
+ * sample s (B and grad B) at (R, 0, Z). */
+static void cf_strength_at(const struct gcp_field_sample *s, double R, double *Bm,
+                           double *dBdpsi, double *dBdchi)
+{
+    const double BR = s->B[0], BZ = s->B[2];
+    const double B2 = BR * BR + s->B[1] * s->B[1] + BZ * BZ;
+    *Bm = sqrt(B2);
+    /* grad|B| in the phi = 0 half plane: (R, Z) components */
+    double gB[3];
+    for (int j = 0; j < 3; j += 2)
+        gB[j] = (s->B[0] * s->gradB[0][j] + s->B[1] * s->gradB[1][j] + s->B[2] * s->gradB[2][j]) /
+                *Bm;
+    *dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
+    *dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+}
+
+/* |B| at z and its derivatives d|B|/d(psi, chi). */
 static int cf_strength(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
                        const double z[4], double aux[2], double *Bm, double *dBdpsi,
                        double *dBdchi)
@@ -139,26 +156,15 @@ static int cf_strength(const struct gcp_canon_chart *c, const struct gcp_gc_cons
     struct gcp_field_sample s;
     const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_GRADB, &s);
     if (st) return st;
-    const double R = aux[0];
-    const double BR = s.B[0], BZ = s.B[2];
-    const double B2 = BR * BR + s.B[1] * s.B[1] + BZ * BZ;
-    *Bm = sqrt(B2);
-    /* grad|B| in the phi = 0 half plane: (R, Z) components */
-    double gB[3];
-    for (int j = 0; j < 3; j += 2)
-        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) / *Bm;
-    *dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
-    *dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+    cf_strength_at(&s, aux[0], Bm, dBdpsi, dBdchi);
     return 0;
 }
 
-static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
-                          const double z[4], double aux[2], double *H, double dH[4])
+/* H and dH/dz (see the header) from |B| and d|B|/d(psi, chi) at P_chi. */
+static int cf_ham_at(const struct gcp_gc_consts *k, double Pchi, double Bm, double dBdpsi,
+                     double dBdchi, double *H, double dH[4])
 {
-    double Bm, dBdpsi, dBdchi;
-    const int st = cf_strength(c, k, z, aux, &Bm, &dBdpsi, &dBdchi);
-    if (st) return st;
-    const double ppar = -z[3] * Bm;
+    const double ppar = -Pchi * Bm;
     const double gamma = gcp_gc_gamma(ppar, k->mu, Bm, k->m);
     const double vpar = ppar / (gamma * k->m);
     const double w = ppar * vpar / Bm + k->mu / gamma;
@@ -168,6 +174,15 @@ static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_c
     dH[2] = w * dBdpsi / k->q;
     dH[3] = -Bm * vpar;
     return isfinite(*H + dH[1] + dH[2] + dH[3]) ? 0 : GCP_NONFINITE;
+}
+
+static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                          const double z[4], double aux[2], double *H, double dH[4])
+{
+    double Bm, dBdpsi, dBdchi;
+    const int st = cf_strength(c, k, z, aux, &Bm, &dBdpsi, &dBdchi);
+    if (st) return st;
+    return cf_ham_at(k, z[3], Bm, dBdpsi, dBdchi, H, dH);
 }
 
 static int cf_field_strength(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
@@ -181,6 +196,45 @@ static int cf_field_strength(const struct gcp_canon_chart *c, const struct gcp_g
     dBm[2] = dBdpsi / k->q;
     dBm[3] = 0.0;
     return 0;
+}
+
+/* Everything at the point p = (R, Z) from one field evaluation with grad B
+ * (canon_priv.h lift_eval): (psi, chi) there, H, |B| and their derivatives
+ * as above, and the inverse chart Jacobian of the header,
+ *   d(R, Z)/dpsi = (B_Z, -B_R) / (R B^2),  d(R, Z)/dchi = -(B_R, B_Z) / B^2,
+ * d/dP_phi = (1/q) d/dpsi. */
+static int cf_lift_eval(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                        const double p[2], double Peta, struct gcp_canon_lift *o)
+{
+    const double R = p[0], Z = p[1];
+    if (!(R > 0.0) || !isfinite(Z)) return GCP_STEP_FAILED;
+    const double x[3] = {R, 0.0, Z};
+    struct gcp_field_sample s = {.need = GCP_NEED_B | GCP_NEED_GRADB};
+    const int st = gcp_field_eval(c->field, 0.0, x, &s);
+    if (st) return st;
+    double psi, chi, dBdpsi, dBdchi;
+    gcp_field_flux_potential(c->field, x, &psi, &chi);
+    cf_strength_at(&s, R, &o->Bm, &dBdpsi, &dBdchi);
+    o->Pphi = k->q * psi;
+    o->eta = chi;
+    o->dBm[0] = 0.0;
+    o->dBm[1] = dBdchi;
+    o->dBm[2] = dBdpsi / k->q;
+    o->dBm[3] = 0.0;
+    const double BR = s.B[0], BZ = s.B[2], B2 = o->Bm * o->Bm;
+    o->dp[0][0] = BZ / (R * B2 * k->q);
+    o->dp[1][0] = -BR / (R * B2 * k->q);
+    o->dp[0][1] = -BR / B2;
+    o->dp[1][1] = -BZ / B2;
+    return cf_ham_at(k, Peta, o->Bm, dBdpsi, dBdchi, &o->H, o->dH);
+}
+
+/* H at another P_chi from the |B| and d|B|/dz that cf_lift_eval stored. */
+static int cf_lift_ham(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                       const struct gcp_canon_lift *o, double Peta, double *H, double dH[4])
+{
+    (void)c;
+    return cf_ham_at(k, Peta, o->Bm, o->dBm[2] * k->q, o->dBm[1], H, dH);
 }
 
 int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_chart *out,
@@ -209,5 +263,7 @@ int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_
     out->from_canon = cf_from_canon;
     out->hamiltonian = cf_hamiltonian;
     out->field_strength = cf_field_strength;
+    out->lift_eval = cf_lift_eval;
+    out->lift_ham = cf_lift_ham;
     return 0;
 }

@@ -552,6 +552,10 @@ int main(int argc, char **argv)
         limit_rows();
         return 0;
     }
+    if (argc > 1 && strcmp(argv[1], "gc") == 0) { /* part 3 alone */
+        part_gc();
+        return 0;
+    }
     if (argc > 1) scale = atof(argv[1]);
     if (!(scale > 0.0)) scale = 1.0;
     printf("gcpush bench: single core, best of %d, wall clock (scale %g)\n\n", REPS, scale);
