@@ -352,6 +352,29 @@ static void gl_lagrange(const double *x, int m, double xi, double *w)
     }
 }
 
+/* The chart point at xi (in units of h from the start of the step) by the
+ * polynomial through the kept points: without cur, the stage points of the
+ * last two steps (nodes c_j - 2, c_j - 1, as far as kept) and the start
+ * (node 0); with cur (this step's stage points, nodes c_j), the last step's
+ * stage points, the start and cur. */
+static void gl_points_extrap(const struct gl_tableau *T, const struct gl_lane *L,
+                             const double cur[GL_SMAX][2], double xi, double *out)
+{
+    const int s = T->s;
+    double x[3 * GL_SMAX + 1], v[3 * GL_SMAX + 1][2], w[3 * GL_SMAX + 1];
+    int m = 0;
+    for (int j = 0; j < s && !cur && L->have_P >= 2; j++, m++)
+        x[m] = T->c[j] - 2.0, v[m][0] = L->pst2[j][0], v[m][1] = L->pst2[j][1];
+    for (int j = 0; j < s && L->have_P >= 1; j++, m++)
+        x[m] = T->c[j] - 1.0, v[m][0] = L->aux[1 + j][0], v[m][1] = L->aux[1 + j][1];
+    x[m] = 0.0, v[m][0] = L->aux[0][0], v[m][1] = L->aux[0][1], m++;
+    for (int j = 0; j < s && cur; j++, m++)
+        x[m] = T->c[j], v[m][0] = cur[j][0], v[m][1] = cur[j][1];
+    gl_lagrange(x, m, xi, w);
+    out[0] = out[1] = 0.0;
+    for (int a = 0; a < m; a++) out[0] += w[a] * v[a][0], out[1] += w[a] * v[a][1];
+}
+
 /* Stage i evaluated at the chart point p with P_eta: sample o, rates g, qd. */
 static int gl_lift_stage(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                          const struct gl_lane *L, const double p[2], double Peta,
@@ -409,21 +432,9 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
     double K[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], Pe[GL_SMAX];
     struct gcp_canon_lift o[GL_SMAX];
     if (!(L->sc_pphi > 0.0) || gl_predict(C, k, L, K)) return GCP_STEP_FAILED;
-    /* stage points: the last step's (nodes c_j - 1) and the start point
-     * (node 0) extrapolated to c_i; the start point alone at the first step */
-    double x[GL_SMAX + 1], w[GL_SMAX + 1];
-    for (int j = 0; j < s; j++) x[j] = T->c[j] - 1.0;
-    x[s] = 0.0;
-    for (int i = 0; i < s; i++)
-        for (int r = 0; r < 2; r++) p[i][r] = L->aux[0][r];
-    if (L->have_K)
-        for (int i = 0; i < s; i++) {
-            gl_lagrange(x, s + 1, T->c[i], w);
-            for (int r = 0; r < 2; r++) {
-                p[i][r] = w[s] * L->aux[0][r];
-                for (int j = 0; j < s; j++) p[i][r] += w[j] * L->aux[1 + j][r];
-            }
-        }
+    /* stage points: those of the last two steps (nodes c_j - 2, c_j - 1)
+     * and the start point (node 0) extrapolated to c_i */
+    for (int i = 0; i < s; i++) gl_points_extrap(T, L, NULL, T->c[i], p[i]);
     /* DF at the first iterate of every step (one field evaluation a stage),
      * kept through the step (a simplified Newton) */
     double nprev = INFINITY;
@@ -484,18 +495,17 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
         if (nd <= GL_TOL || next_below || stalled) {
             gl_finish(T, L, h, K, pd);
-            /* the stage points, and the end point's guess for from_canon:
-             * the polynomial through the start (node 0) and the stages */
-            double xe[GL_SMAX + 1];
-            xe[0] = 0.0;
-            for (int j = 0; j < s; j++) xe[1 + j] = T->c[j];
-            gl_lagrange(xe, s + 1, 1.0, w);
+            /* the end point's guess for from_canon: the polynomial through
+             * the last step's stage points, the start and this step's stages
+             * at 1; then the stage points kept for the next predictor */
+            double pe[2];
+            gl_points_extrap(T, L, p, 1.0, pe);
+            memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
             for (int r = 0; r < 2; r++) {
-                double pe = w[0] * L->aux[0][r];
-                for (int j = 0; j < s; j++) pe += w[1 + j] * p[j][r];
-                L->aux[0][r] = pe;
+                L->aux[0][r] = pe[r];
                 for (int j = 0; j < s; j++) L->aux[1 + j][r] = p[j][r];
             }
+            L->have_P = L->have_P ? 2 : 1;
             return 0;
         }
         nprev = nd;
@@ -515,6 +525,8 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
         L->have_J = 0;
     }
     const int r = gl_step_invert(C, k, L, h);
+    /* its aux[1 + i] are this step's stage points, aux[0] the start's */
+    if (!r) L->have_P = 1;
     return r;
 }
 

@@ -36,6 +36,8 @@ struct gl_lane {
     double sc_pphi;             /* [kg m^2/s] scale of P_phi (chart residual of a stage point) */
     double DF[GL_SMAX][2][2];   /* the stage Jacobians of F behind J (lifted solver) */
     double Jinv[16];            /* J^-1 (lifted solver: a product, not a solve, per iteration) */
+    double pst2[GL_SMAX][2];    /* the stage points of the step before the last (lifted solver) */
+    int have_P;                 /* steps whose stage points are kept: 0, 1 (aux[1 + i]), 2 (+ pst2) */
     double hJ;                  /* step of the kept Jacobian */
     double t;                   /* [s] physical time (advanced by the step) */
     double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */
