@@ -25,7 +25,8 @@
  *
  * Part 3 (issue 11): guiding-centre methods, cost per step against gc-rk4.
  *
- * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests) */
+ * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests)
+ *        bench_push gc        (part 3 alone: the guiding-centre methods of issue 11) */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
