@@ -486,11 +486,13 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
          * round-off floor */
         const double th = nd / nprev;
         const int next_below = it > 0 && th < 1.0 && th / (1.0 - th) * nd <= GL_TOL;
-        /* an update that shrinks less than 2x above the round-off floor, with
-         * a DF fresh from this step: the iteration diverges or crawls (a
-         * healthy step contracts 20x or more), i.e. a step far beyond what
-         * the method resolves -- it fails, as through the inverting solver,
-         * rather than crawl to a floor that the stall test would accept */
+        /* from the third iterate on (the first update carries the predicted
+         * points' chart residual), an update that shrinks less than 2x above
+         * the round-off floor with a DF fresh from this step: the iteration
+         * diverges or crawls (a healthy step contracts 20x or more), i.e. a
+         * guess too far off or a step far beyond what the method resolves --
+         * the lifted step is abandoned rather than crawl to a floor that the
+         * stall test would accept */
         const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
         if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
         if (nd <= GL_TOL || next_below || stalled) {
@@ -520,7 +522,7 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
                       double h)
 {
     if (C->chart.lift_eval && C->sundman_a == 0.0) {
-        /* gl_step_lift changes only DF and J of L until it succeeds */
+        /* gl_step_lift changes only the Jacobian fields of L until it succeeds */
         if (gl_step_lift(C, k, L, h) == 0) return 0;
         L->have_J = 0;
     }
