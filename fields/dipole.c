@@ -78,16 +78,22 @@ static int dipole_eval(const struct gcp_field *f, double t, const double x[3],
     const struct dipole_params *p = f->params;
     dipole_B(p->c, x[0], x[1], x[2], &s->B[0], &s->B[1], &s->B[2]);
     if (s->need & GCP_NEED_GRADB) {
+        /* G_ij = a (-zf x_i x_j [+ z if i = j] [+ x_i if j = z] [+ x_j if
+         * i = z]), written out (branch-free) in the operations and order of
+         * dipole_soa_loop: the two give bit-identical results */
         const double r2 = dipole_r2(x[0], x[1], x[2]), c5 = dipole_c5(p->c, r2);
         const double a = -3.0 * c5, zf = 5.0 * x[2] / r2;
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++) {
-                double v = -zf * x[i] * x[j];
-                if (i == j) v += x[2];
-                if (j == 2) v += x[i];
-                if (i == 2) v += x[j];
-                s->gradB[i][j] = a * v;
-            }
+        const double X = x[0], Y = x[1], Z = x[2];
+        const double px = -zf * X, py = -zf * Y, pz = -zf * Z;
+        s->gradB[0][0] = a * (px * X + Z);
+        s->gradB[0][1] = a * (px * Y);
+        s->gradB[0][2] = a * (px * Z + X);
+        s->gradB[1][0] = a * (py * X);
+        s->gradB[1][1] = a * (py * Y + Z);
+        s->gradB[1][2] = a * (py * Z + Y);
+        s->gradB[2][0] = a * (pz * X + X);
+        s->gradB[2][1] = a * (pz * Y + Y);
+        s->gradB[2][2] = a * (((pz * Z + Z) + Z) + Z);
     }
     if ((s->need & GCP_NEED_E) && f->has_E)
         dipole_E(p->omega, x[0], x[1], s->B[0], s->B[1], s->B[2], &s->E[0], &s->E[1], &s->E[2]);

@@ -63,7 +63,7 @@
 /* (R, Z) with psi(R, Z) = psi_t, chi(R, Z) = chi_t, from the guess aux;
  * s gets the field (B, and grad B when need asks) at the point found. */
 static int cf_invert(const struct gcp_field *f, double psi_t, double chi_t, double aux[2],
-                     unsigned need, struct gcp_field_sample *s)
+                     unsigned need, struct gcp_field_sample *s, double *Bm)
 {
     double R = aux[0], Z = aux[1];
     int small = 0;
@@ -77,6 +77,7 @@ static int cf_invert(const struct gcp_field *f, double psi_t, double chi_t, doub
         gcp_field_flux_potential(f, x, &psi, &chi);
         if (small) {
             aux[0] = R, aux[1] = Z;
+            if (Bm) *Bm = sqrt(s->B[0] * s->B[0] + s->B[1] * s->B[1] + s->B[2] * s->B[2]);
             return 0;
         }
         const double BR = s->B[0], BZ = s->B[2], B2 = BR * BR + BZ * BZ;
@@ -90,6 +91,20 @@ static int cf_invert(const struct gcp_field *f, double psi_t, double chi_t, doub
             /* the point in hand is the solution to a few ulp (an update this
              * small is round-off in psi and chi): keep it and its sample */
             aux[0] = R, aux[1] = Z;
+            if (Bm) *Bm = sqrt(B2 + s->B[1] * s->B[1]);
+            return 0;
+        }
+        if (Bm && dn <= CF_DONE * scale) {
+            /* |B| alone is asked (from_canon): at the updated point by
+             * |B| + grad|B| . d, whose error ~|d|^2 |B|'' ~ 1e-18 |B| is
+             * round-off, instead of one more evaluation there */
+            const double B = sqrt(B2 + s->B[1] * s->B[1]);
+            double gB[3];
+            for (int j = 0; j < 3; j += 2)
+                gB[j] = (s->B[0] * s->gradB[0][j] + s->B[1] * s->gradB[1][j] +
+                         s->B[2] * s->gradB[2][j]) / B;
+            *Bm = B + gB[0] * dR + gB[2] * dZ;
+            aux[0] = R + dR, aux[1] = Z + dZ;
             return 0;
         }
         R += dR, Z += dZ;
@@ -121,9 +136,9 @@ static int cf_from_canon(const struct gcp_canon_chart *c, const struct gcp_gc_co
                          const double z[4], double aux[2], double X[3], double *ppar)
 {
     struct gcp_field_sample s;
-    const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_B, &s);
+    double Bm;
+    const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_GRADB, &s, &Bm);
     if (st) return st;
-    const double Bm = sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
     X[0] = aux[0] * cos(z[0]);
     X[1] = aux[0] * sin(z[0]);
     X[2] = aux[1];
@@ -131,34 +146,40 @@ static int cf_from_canon(const struct gcp_canon_chart *c, const struct gcp_gc_co
     return 0;
 }
 
-/* |B| at z and its derivatives d|B|/d(psi, chi) (see the header). */
+/* |B| and its derivatives d|B|/d(psi, chi) (see the header) from the
+ * sample s (B and grad B) at (R, 0, Z). */
+static void cf_strength_at(const struct gcp_field_sample *s, double R, double *Bm,
+                           double *dBdpsi, double *dBdchi)
+{
+    const double BR = s->B[0], BZ = s->B[2];
+    const double B2 = BR * BR + s->B[1] * s->B[1] + BZ * BZ;
+    *Bm = sqrt(B2);
+    /* grad|B| in the phi = 0 half plane: (R, Z) components */
+    double gB[3];
+    for (int j = 0; j < 3; j += 2)
+        gB[j] = (s->B[0] * s->gradB[0][j] + s->B[1] * s->gradB[1][j] + s->B[2] * s->gradB[2][j]) /
+                *Bm;
+    *dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
+    *dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+}
+
+/* |B| at z and its derivatives d|B|/d(psi, chi). */
 static int cf_strength(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
                        const double z[4], double aux[2], double *Bm, double *dBdpsi,
                        double *dBdchi)
 {
     struct gcp_field_sample s;
-    const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_GRADB, &s);
+    const int st = cf_invert(c->field, z[2] / k->q, z[1], aux, GCP_NEED_GRADB, &s, NULL);
     if (st) return st;
-    const double R = aux[0];
-    const double BR = s.B[0], BZ = s.B[2];
-    const double B2 = BR * BR + s.B[1] * s.B[1] + BZ * BZ;
-    *Bm = sqrt(B2);
-    /* grad|B| in the phi = 0 half plane: (R, Z) components */
-    double gB[3];
-    for (int j = 0; j < 3; j += 2)
-        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) / *Bm;
-    *dBdpsi = (gB[0] * BZ - gB[2] * BR) / (R * B2);
-    *dBdchi = -(gB[0] * BR + gB[2] * BZ) / B2;
+    cf_strength_at(&s, aux[0], Bm, dBdpsi, dBdchi);
     return 0;
 }
 
-static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
-                          const double z[4], double aux[2], double *H, double dH[4])
+/* H and dH/dz (see the header) from |B| and d|B|/d(psi, chi) at P_chi. */
+static int cf_ham_at(const struct gcp_gc_consts *k, double Pchi, double Bm, double dBdpsi,
+                     double dBdchi, double *H, double dH[4])
 {
-    double Bm, dBdpsi, dBdchi;
-    const int st = cf_strength(c, k, z, aux, &Bm, &dBdpsi, &dBdchi);
-    if (st) return st;
-    const double ppar = -z[3] * Bm;
+    const double ppar = -Pchi * Bm;
     const double gamma = gcp_gc_gamma(ppar, k->mu, Bm, k->m);
     const double vpar = ppar / (gamma * k->m);
     const double w = ppar * vpar / Bm + k->mu / gamma;
@@ -168,6 +189,15 @@ static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_c
     dH[2] = w * dBdpsi / k->q;
     dH[3] = -Bm * vpar;
     return isfinite(*H + dH[1] + dH[2] + dH[3]) ? 0 : GCP_NONFINITE;
+}
+
+static int cf_hamiltonian(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                          const double z[4], double aux[2], double *H, double dH[4])
+{
+    double Bm, dBdpsi, dBdchi;
+    const int st = cf_strength(c, k, z, aux, &Bm, &dBdpsi, &dBdchi);
+    if (st) return st;
+    return cf_ham_at(k, z[3], Bm, dBdpsi, dBdchi, H, dH);
 }
 
 static int cf_field_strength(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
@@ -181,6 +211,77 @@ static int cf_field_strength(const struct gcp_canon_chart *c, const struct gcp_g
     dBm[2] = dBdpsi / k->q;
     dBm[3] = 0.0;
     return 0;
+}
+
+/* Everything at the point p = (R, Z) from one field evaluation with grad B
+ * (canon_priv.h lift_eval): (psi, chi) there, H, |B| and their derivatives
+ * as above, and the inverse chart Jacobian of the header,
+ *   d(R, Z)/dpsi = (B_Z, -B_R) / (R B^2),  d(R, Z)/dchi = -(B_R, B_Z) / B^2,
+ * d/dP_phi = (1/q) d/dpsi. */
+/* H and dH/dz at P_chi from o's |B| and d|B|/dz (cf_ham_at's formulas,
+ * with 1/(gamma m) taken once); iBm = 1/|B|. */
+static int cf_lift_h(const struct gcp_gc_consts *k, double Peta, double iBm,
+                     struct gcp_canon_lift *o)
+{
+    const double Bm = o->Bm, ppar = -Peta * Bm;
+    const double gamma = gcp_gc_gamma(ppar, k->mu, Bm, k->m);
+    const double igm = 1.0 / (gamma * k->m);
+    const double vpar = ppar * igm;
+    const double w = ppar * vpar * iBm + k->mu * (igm * k->m);
+    o->H = gamma * k->m * GCP_C_LIGHT * GCP_C_LIGHT;
+    o->dH[0] = 0.0;
+    o->dH[1] = w * o->dBm[1];
+    o->dH[2] = w * o->dBm[2];
+    o->dH[3] = -Bm * vpar;
+    return isfinite(o->H + o->dH[1] + o->dH[2] + o->dH[3]) ? 0 : GCP_NONFINITE;
+}
+
+static int cf_lift_eval(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                        const double p[2], double Peta, struct gcp_canon_lift *o)
+{
+    const double R = p[0], Z = p[1];
+    if (!(R > 0.0) || !isfinite(Z)) return GCP_STEP_FAILED;
+    const double x[3] = {R, 0.0, Z};
+    struct gcp_field_sample s = {.need = GCP_NEED_B | GCP_NEED_GRADB};
+    const int st = gcp_field_eval(c->field, 0.0, x, &s);
+    if (st) return st;
+    double psi, chi;
+    gcp_field_flux_potential(c->field, x, &psi, &chi);
+    /* cf_strength_at and cf_ham_at written out with the reciprocals 1/|B|^2,
+     * 1/|B|, 1/R, 1/q, 1/(gamma m) taken once (this is the solver's inner
+     * evaluation: the chain of divisions and square roots is its cost) */
+    const double BR = s.B[0], BZ = s.B[2];
+    const double B2 = BR * BR + s.B[1] * s.B[1] + BZ * BZ;
+    const double Bm = sqrt(B2), iB2 = 1.0 / B2, iBm = Bm * iB2, iR = 1.0 / R, iq = 1.0 / k->q;
+    double gB[3];
+    for (int j = 0; j < 3; j += 2)
+        gB[j] = (s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j]) * iBm;
+    const double dBdpsi = (gB[0] * BZ - gB[2] * BR) * iR * iB2;
+    const double dBdchi = -(gB[0] * BR + gB[2] * BZ) * iB2;
+    o->Bm = Bm;
+    o->Pphi = k->q * psi;
+    o->eta = chi;
+    o->dBm[0] = 0.0;
+    o->dBm[1] = dBdchi;
+    o->dBm[2] = dBdpsi * iq;
+    o->dBm[3] = 0.0;
+    o->dp[0][0] = BZ * iR * iB2 * iq;
+    o->dp[1][0] = -BR * iR * iB2 * iq;
+    o->dp[0][1] = -BR * iB2;
+    o->dp[1][1] = -BZ * iB2;
+    return cf_lift_h(k, Peta, iBm, o);
+}
+
+/* H at another P_chi from the |B| and d|B|/dz that cf_lift_eval stored. */
+static int cf_lift_ham(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                       const struct gcp_canon_lift *o, double Peta, double *H, double dH[4])
+{
+    (void)c;
+    struct gcp_canon_lift o2 = *o;
+    const int st = cf_lift_h(k, Peta, 1.0 / o->Bm, &o2);
+    *H = o2.H;
+    memcpy(dH, o2.dH, sizeof o2.dH);
+    return st;
 }
 
 int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_chart *out,
@@ -209,5 +310,7 @@ int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_
     out->from_canon = cf_from_canon;
     out->hamiltonian = cf_hamiltonian;
     out->field_strength = cf_field_strength;
+    out->lift_eval = cf_lift_eval;
+    out->lift_ham = cf_lift_ham;
     return 0;
 }

@@ -46,6 +46,14 @@ struct gcp_gc_consts {
     double mu; /* [J/T] magnetic moment p_perp^2 / (2 m |B|) */
 };
 
+/* What lift_eval gives at a chart point p (see below). */
+struct gcp_canon_lift {
+    double Pphi, eta;   /* the canonical coordinates of p (P_phi = q psi, eta) */
+    double H, dH[4];    /* [J] H at (p, P_eta) and dH/dz */
+    double Bm, dBm[4];  /* [T] |B| at p and d|B|/dz */
+    double dp[2][2];    /* dp_r / d(P_phi, eta)_c at p: a change of P_phi, eta -> of p */
+};
+
 struct gcp_canon_chart {
     const char *name;              /* "curl-free", "flux-orthogonal", ... */
     const struct gcp_field *field; /* not owned */
@@ -67,6 +75,19 @@ struct gcp_canon_chart {
      * 0 or a particle status. */
     int (*field_strength)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
                           const double z[4], double aux[2], double *Bm, double dBm[4]);
+    /* Optional (NULL: not provided; the collocation solver then inverts the
+     * chart at every evaluation): everything at the chart's own point p (the
+     * aux layout, e.g. (R, Z)) with P_eta, from ONE field evaluation, no
+     * inversion -- the canonical coordinates the point has, H and dH/dz
+     * there, |B| and d|B|/dz, and the chart's inverse Jacobian, which lets
+     * gc_gauss.c solve for the stage points themselves (a Newton on the
+     * stage equations and the chart equations together).  0 or a status. */
+    int (*lift_eval)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                     const double p[2], double Peta, struct gcp_canon_lift *out);
+    /* With lift_eval: H and dH/dz at the point of o with another P_eta, from
+     * o alone (no field evaluation).  0 or a status. */
+    int (*lift_ham)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                    const struct gcp_canon_lift *o, double Peta, double *H, double dH[4]);
 };
 
 /* Builds a chart for field f (the first constructor in canon_chart.c that

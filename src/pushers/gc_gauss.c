@@ -36,6 +36,29 @@
  * chart failure: the lane gets GCP_STEP_FAILED with the state of the start
  * of the step (the step is never shortened).
  *
+ * Lifted solver (charts with lift_eval, plain time steps; gl_step_lift).
+ * Each F(Y_i) above inverts the chart (psi, chi) -> (R, Z), two or three
+ * field evaluations, at every iteration.  Instead the stage points p_i (the
+ * chart's own (R, Z)) are unknowns too, with the chart equations
+ *   P_phi(p_i) = P_phi(z0),   eta(p_i) = eta0 + h sum_j a_ij K_j^eta,
+ * solved together with K_i = F(p_i, P_eta_i) by one Newton: an iteration
+ * evaluates the field once at each p_i (lift_eval: the point's P_phi, eta,
+ * H's derivatives and d p/d(P_phi, eta)), solves
+ *   (delta_ij I - h a_ij DF_i) d_j = F_i - K_i + DF_i (e_i, 0),
+ * e_i = the stage's eta minus the point's, and moves each point by
+ * d p/d(P_phi, eta) times the (P_phi, eta) it lacks.  The fixed point is the
+ * same (K_i = F(Y_i) with Y_i on the chart), so the map is the same to
+ * round-off.  DF is refreshed at the first iterate of every step (the eta
+ * column by one field evaluation, the P_eta column from the sample:
+ * lift_ham); the points are predicted from the last step's stage points
+ * and the start point, and the end point's guess for from_canon from the
+ * stages.  Converged as above, or when the contraction theta = nd/nprev
+ * predicts the next update below the tolerance (theta/(1 - theta) nd <=
+ * 1e-15, Hairer & Wanner, Solving ODEs II, sec. IV.8).  An update that
+ * shrinks less than 2x above the round-off floor (after the second
+ * iterate) abandons the lifted step for the inverting solver from the
+ * start of the step.
+ *
  * State.  The canonical z of each lane is kept between the steps of one
  * advance, so that the map applied is exactly the symplectic map; X, p_par
  * are mapped back from z after every step for the samplers and the domain
@@ -63,6 +86,9 @@
  * the 1e-8 symplecticity check while not failing such steps. */
 #define GL_FLOOR 1e-10
 #define GL_FD 1e-7
+/* The round-off floor of the lifted solver (curl-free chart: no inversion,
+ * no cancellation; its updates reach 1e-16 .. 1e-15 of the scales). */
+#define GL_LIFT_FLOOR 1e-13
 
 const struct gl_tableau gcp_gl2_tableau = {1, {{0.5}}, {1.0}, {0.5}};
 /* sqrt(3)/6 */
@@ -111,46 +137,67 @@ static void lu_solve(const double *a, const int *piv, int n, double *x)
     }
 }
 
-/* F at (eta, P_eta) with P_phi fixed: g = (d eta, d P_eta) and the
- * quadrature rates qd = (d phi, d t), per unit of the independent variable:
- * time (g = (dH/dP_eta, -dH/deta), qd = (dH/dP_phi, 1)), or, with the
- * Sundman transformation (C->sundman_a != 0), the fictitious time s of the
- * extended Hamiltonian K = w(z) (H(z) + p_t), w = (B_ref/|B|)^a:
+/* The rates at a point from H, dH and (Sundman) |B|, d|B|/dz: g = (d eta,
+ * d P_eta) and the quadrature rates qd = (d phi, d t), per unit of the
+ * independent variable: time (g = (dH/dP_eta, -dH/deta), qd = (dH/dP_phi,
+ * 1)), or, with the Sundman transformation (C->sundman_a != 0), the
+ * fictitious time s of the extended Hamiltonian K = w(z) (H(z) + p_t),
+ * w = (B_ref/|B|)^a:
  *   dz/ds = w J grad H + (H + p_t) J grad w,  dt/ds = w,  dp_t/ds = 0
  * (grad w = -a w grad|B| / |B|; H + p_t = 0 on the orbit, but the term is
  * kept: without it the map is not symplectic in the extended space). */
-static int gl_rhs(const struct gl_ctx *C, const struct gcp_gc_consts *k, const struct gl_lane *L,
-                  double eta, double Peta, double aux[2], double g[2], double qd[2])
+static int gl_rates(const struct gl_ctx *C, const struct gl_lane *L, double H,
+                    const double dH[4], double Bm, const double dB[4], double g[2], double qd[2])
 {
-    const double z[4] = {0.0, eta, L->z[2], Peta};
-    double H, dH[4];
-    int st = C->chart.hamiltonian(&C->chart, k, z, aux, &H, dH);
-    if (C->sundman_a != 0.0 && !st) {
-        double Bm, dB[4];
-        st = C->chart.field_strength(&C->chart, k, z, aux, &Bm, dB);
+    if (C->sundman_a != 0.0) {
         const double w = pow(L->Bref / Bm, C->sundman_a), E = H + L->pt;
         const double dw = -C->sundman_a * w / Bm; /* times dB_j */
         g[0] = w * dH[3] + E * dw * dB[3];
         g[1] = -(w * dH[1] + E * dw * dB[1]);
         qd[0] = w * dH[2] + E * dw * dB[2];
         qd[1] = w;
-        return st ? st : (isfinite(g[0] + g[1] + qd[0] + qd[1]) ? 0 : GCP_NONFINITE);
+        return isfinite(g[0] + g[1] + qd[0] + qd[1]) ? 0 : GCP_NONFINITE;
     }
     g[0] = dH[3];
     g[1] = -dH[1];
     qd[0] = dH[2];
     qd[1] = 1.0;
-    return st;
+    return 0;
+}
+
+/* F at (eta, P_eta) with P_phi fixed (gl_rates), through the chart's
+ * inversion (hamiltonian, field_strength). */
+static int gl_rhs(const struct gl_ctx *C, const struct gcp_gc_consts *k, const struct gl_lane *L,
+                  double eta, double Peta, double aux[2], double g[2], double qd[2])
+{
+    const double z[4] = {0.0, eta, L->z[2], Peta};
+    double H, dH[4], Bm = 0.0, dB[4] = {0.0, 0.0, 0.0, 0.0};
+    int st = C->chart.hamiltonian(&C->chart, k, z, aux, &H, dH);
+    if (C->sundman_a != 0.0 && !st) st = C->chart.field_strength(&C->chart, k, z, aux, &Bm, dB);
+    return st ? st : gl_rates(C, L, H, dH, Bm, dB, g, qd);
+}
+
+/* J = LU of delta_ij I - h a_ij DF_i from the stage Jacobians L->DF. */
+static int gl_assemble(const struct gl_ctx *C, struct gl_lane *L, double h)
+{
+    const int s = C->tab->s, n = 2 * s;
+    memset(L->J, 0, sizeof L->J);
+    for (int i = 0; i < s; i++)
+        for (int j = 0; j < s; j++)
+            for (int r = 0; r < 2; r++)
+                for (int c = 0; c < 2; c++)
+                    L->J[n * (2 * i + r) + 2 * j + c] =
+                        (i == j && r == c ? 1.0 : 0.0) - h * C->tab->a[i][j] * L->DF[i][r][c];
+    L->hJ = h;
+    L->have_J = lu_n(L->J, L->piv, n) == 0;
+    return L->have_J ? 0 : -1;
 }
 
 /* The stage Jacobian delta_ij I - h a_ij DF(Y_i), DF by forward differences. */
 static int gl_jacobian(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
                        double h, const double Y[GL_SMAX][2], const double g[GL_SMAX][2])
 {
-    const int s = C->tab->s, n = 2 * s;
-    memset(L->J, 0, sizeof L->J);
-    for (int i = 0; i < s; i++) {
-        double DF[2][2];
+    for (int i = 0; i < C->tab->s; i++)
         for (int c = 0; c < 2; c++) {
             double y[2] = {Y[i][0], Y[i][1]};
             const double e = GL_FD * L->sc[c];
@@ -158,18 +205,10 @@ static int gl_jacobian(const struct gl_ctx *C, const struct gcp_gc_consts *k, st
             double gk[2], pd[2], aux[2] = {L->aux[1 + i][0], L->aux[1 + i][1]};
             if (gl_rhs(C, k, L, y[0], y[1], aux, gk, pd)) return -1;
             const double ec = y[c] - Y[i][c];
-            DF[0][c] = (gk[0] - g[i][0]) / ec;
-            DF[1][c] = (gk[1] - g[i][1]) / ec;
+            L->DF[i][0][c] = (gk[0] - g[i][0]) / ec;
+            L->DF[i][1][c] = (gk[1] - g[i][1]) / ec;
         }
-        for (int j = 0; j < s; j++)
-            for (int r = 0; r < 2; r++)
-                for (int c = 0; c < 2; c++)
-                    L->J[n * (2 * i + r) + 2 * j + c] =
-                        (i == j && r == c ? 1.0 : 0.0) - h * C->tab->a[i][j] * DF[r][c];
-    }
-    L->hJ = h;
-    L->have_J = lu_n(L->J, L->piv, n) == 0;
-    return L->have_J ? 0 : -1;
+    return gl_assemble(C, L, h);
 }
 
 /* The update h A d of the stage values, relative to the lane's scales. */
@@ -186,13 +225,12 @@ static double gl_update_norm(const struct gl_tableau *T, const struct gl_lane *L
     return nd;
 }
 
-/* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged). */
-int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
-                         double h)
+/* The predictor of the stage slopes K (see the header of this file). */
+static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                      const struct gl_lane *L, double K[GL_SMAX][2])
 {
     const struct gl_tableau *T = C->tab;
-    const int s = T->s, n = 2 * s;
-    double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2];
+    const int s = T->s;
     if (L->have_K >= 2) {
         /* the slopes of the last two steps (nodes c_j - 2 and c_j - 1 in
          * units of h) extrapolated by their interpolating polynomial of
@@ -224,9 +262,41 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
             }
     } else {
         double g0[2], p0[2], aux[2] = {L->aux[0][0], L->aux[0][1]};
-        if (gl_rhs(C, k, L, L->z[1], L->z[3], aux, g0, p0)) return GCP_STEP_FAILED;
+        if (gl_rhs(C, k, L, L->z[1], L->z[3], aux, g0, p0)) return -1;
         for (int i = 0; i < s; i++) K[i][0] = g0[0], K[i][1] = g0[1];
     }
+    return 0;
+}
+
+/* The end of a converged step: z1 = z0 + h sum b_i K_i, the quadratures
+ * phi and t, and the slopes kept for the next predictor. */
+static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2])
+{
+    double de = 0.0, dP = 0.0, dphi = 0.0, dt = 0.0;
+    for (int i = 0; i < T->s; i++) {
+        de += T->b[i] * K[i][0];
+        dP += T->b[i] * K[i][1];
+        dphi += T->b[i] * pd[i][0];
+        dt += T->b[i] * pd[i][1];
+    }
+    L->z[0] = remainder(L->z[0] + h * dphi, 2.0 * GCP_PI);
+    L->t += h * dt;
+    L->z[1] += h * de;
+    L->z[3] += h * dP;
+    memcpy(L->K2, L->K, sizeof L->K);
+    memcpy(L->K, K, sizeof L->K);
+    L->have_K = L->have_K ? 2 : 1;
+}
+
+/* One step through the chart's inversion (charts without lift_eval). */
+static int gl_step_invert(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                          struct gl_lane *L, double h)
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s, n = 2 * s;
+    double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2];
+    if (gl_predict(C, k, L, K)) return GCP_STEP_FAILED;
     if (L->have_J && L->hJ != h) L->have_J = 0;
     int refreshed = 0;
     double nprev = INFINITY;
@@ -264,25 +334,202 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
         for (int i = 0; i < s; i++) K[i][0] += d[2 * i], K[i][1] += d[2 * i + 1];
         const int stalled = it > 0 && nd <= GL_FLOOR && nd > 0.5 * nprev;
         if (nd <= GL_TOL || stalled) {
-            double de = 0.0, dP = 0.0, dphi = 0.0, dt = 0.0;
-            for (int i = 0; i < s; i++) {
-                de += T->b[i] * K[i][0];
-                dP += T->b[i] * K[i][1];
-                dphi += T->b[i] * pd[i][0];
-                dt += T->b[i] * pd[i][1];
-            }
-            L->z[0] = remainder(L->z[0] + h * dphi, 2.0 * GCP_PI);
-            L->t += h * dt;
-            L->z[1] += h * de;
-            L->z[3] += h * dP;
-            memcpy(L->K2, L->K, sizeof K);
-            memcpy(L->K, K, sizeof K);
-            L->have_K = L->have_K ? 2 : 1;
+            gl_finish(T, L, h, K, pd);
             return 0;
         }
         nprev = nd;
     }
     return GCP_STEP_FAILED;
+}
+
+/* Lagrange weights w_m of the nodes x[0 .. m-1] at xi. */
+static void gl_lagrange(const double *x, int m, double xi, double *w)
+{
+    for (int a = 0; a < m; a++) {
+        w[a] = 1.0;
+        for (int l = 0; l < m; l++)
+            if (l != a) w[a] *= (xi - x[l]) / (x[a] - x[l]);
+    }
+}
+
+/* The chart point at xi (in units of h from the start of the step) by the
+ * polynomial through the kept points: without cur, the stage points of the
+ * last two steps (nodes c_j - 2, c_j - 1, as far as kept) and the start
+ * (node 0); with cur (this step's stage points, nodes c_j), the last step's
+ * stage points, the start and cur. */
+static void gl_points_extrap(const struct gl_tableau *T, const struct gl_lane *L,
+                             const double cur[GL_SMAX][2], double xi, double *out)
+{
+    const int s = T->s;
+    double x[3 * GL_SMAX + 1], v[3 * GL_SMAX + 1][2], w[3 * GL_SMAX + 1];
+    int m = 0;
+    for (int j = 0; j < s && !cur && L->have_P >= 2; j++, m++)
+        x[m] = T->c[j] - 2.0, v[m][0] = L->pst2[j][0], v[m][1] = L->pst2[j][1];
+    for (int j = 0; j < s && L->have_P >= 1; j++, m++)
+        x[m] = T->c[j] - 1.0, v[m][0] = L->aux[1 + j][0], v[m][1] = L->aux[1 + j][1];
+    x[m] = 0.0, v[m][0] = L->aux[0][0], v[m][1] = L->aux[0][1], m++;
+    for (int j = 0; j < s && cur; j++, m++)
+        x[m] = T->c[j], v[m][0] = cur[j][0], v[m][1] = cur[j][1];
+    gl_lagrange(x, m, xi, w);
+    out[0] = out[1] = 0.0;
+    for (int a = 0; a < m; a++) out[0] += w[a] * v[a][0], out[1] += w[a] * v[a][1];
+}
+
+/* Stage i evaluated at the chart point p with P_eta: sample o, rates g, qd. */
+static int gl_lift_stage(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                         const struct gl_lane *L, const double p[2], double Peta,
+                         struct gcp_canon_lift *o, double g[2], double qd[2])
+{
+    const int st = C->chart.lift_eval(&C->chart, k, p, Peta, o);
+    return st ? st : gl_rates(C, L, o->H, o->dH, o->Bm, o->dBm, g, qd);
+}
+
+/* DF of stage i (sample o, rates g at its point p) by forward differences:
+ * the eta column by a move of p along dp/deta (the eta reached, from the
+ * sample, is the divisor; P_phi moves by O(e^2)), the P_eta column from the
+ * sample o itself (lift_ham: no field evaluation). */
+static int gl_lift_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                      int i, const double p[2], double Peta, const struct gcp_canon_lift *o,
+                      const double g[2])
+{
+    struct gcp_canon_lift o2 = *o;
+    double g2[2], q2[2];
+    const double P2 = Peta + GL_FD * L->sc[1], dP = P2 - Peta;
+    if (C->chart.lift_ham(&C->chart, k, o, P2, &o2.H, o2.dH) ||
+        gl_rates(C, L, o2.H, o2.dH, o2.Bm, o2.dBm, g2, q2))
+        return -1;
+    L->DF[i][0][1] = (g2[0] - g[0]) / dP;
+    L->DF[i][1][1] = (g2[1] - g[1]) / dP;
+    const double e = GL_FD * L->sc[0];
+    const double p2[2] = {p[0] + o->dp[0][1] * e, p[1] + o->dp[1][1] * e};
+    if (gl_lift_stage(C, k, L, p2, Peta, &o2, g2, q2)) return -1;
+    const double de = o2.eta - o->eta;
+    L->DF[i][0][0] = (g2[0] - g[0]) / de;
+    L->DF[i][1][0] = (g2[1] - g[1]) / de;
+    return isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1]) ? 0 : -1;
+}
+
+/* J (gl_assemble) and its inverse, column by column from the LU. */
+static int gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
+{
+    const int n = 2 * C->tab->s;
+    if (gl_assemble(C, L, h)) return -1;
+    for (int c = 0; c < n; c++) {
+        double col[4] = {0.0, 0.0, 0.0, 0.0};
+        col[c] = 1.0;
+        lu_solve(L->J, L->piv, n, col);
+        for (int r = 0; r < n; r++) L->Jinv[n * r + c] = col[r];
+    }
+    return 0;
+}
+
+/* One step by the lifted solver (charts with lift_eval; see the header). */
+static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                        double h)
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s, n = 2 * s;
+    double K[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], Pe[GL_SMAX];
+    struct gcp_canon_lift o[GL_SMAX];
+    if (!(L->sc_pphi > 0.0) || gl_predict(C, k, L, K)) return GCP_STEP_FAILED;
+    /* stage points: those of the last two steps (nodes c_j - 2, c_j - 1)
+     * and the start point (node 0) extrapolated to c_i */
+    for (int i = 0; i < s; i++) gl_points_extrap(T, L, NULL, T->c[i], p[i]);
+    /* DF at the first iterate of every step (one field evaluation a stage),
+     * kept through the step (a simplified Newton) */
+    double nprev = INFINITY;
+    for (int it = 0; it < GL_MAXIT; it++) {
+        double e[GL_SMAX];
+        for (int i = 0; i < s; i++) {
+            double eta = 0.0, P = 0.0;
+            for (int j = 0; j < s; j++) eta += T->a[i][j] * K[j][0], P += T->a[i][j] * K[j][1];
+            eta = L->z[1] + h * eta;
+            Pe[i] = L->z[3] + h * P;
+            if (gl_lift_stage(C, k, L, p[i], Pe[i], &o[i], g[i], pd[i])) return GCP_STEP_FAILED;
+            e[i] = eta - o[i].eta; /* the point's eta short of the stage's */
+        }
+        if (it == 0) {
+            for (int i = 0; i < s; i++)
+                if (gl_lift_df(C, k, L, i, p[i], Pe[i], &o[i], g[i])) return GCP_STEP_FAILED;
+            if (gl_lift_jinv(C, L, h)) return GCP_STEP_FAILED;
+        }
+        /* K_i + d_i = F(point_i) + DF_i (e_i + h (A d)_i, h (A d)_i^P) */
+        double G[4], d[4], nd = 0.0;
+        for (int i = 0; i < s; i++) {
+            G[2 * i] = g[i][0] - K[i][0] + L->DF[i][0][0] * e[i];
+            G[2 * i + 1] = g[i][1] - K[i][1] + L->DF[i][1][0] * e[i];
+        }
+        for (int r = 0; r < n; r++) {
+            d[r] = 0.0;
+            for (int c = 0; c < n; c++) d[r] += L->Jinv[n * r + c] * G[c];
+        }
+        for (int i = 0; i < s; i++) {
+            double ae = 0.0, aP = 0.0;
+            for (int j = 0; j < s; j++) ae += T->a[i][j] * d[2 * j], aP += T->a[i][j] * d[2 * j + 1];
+            nd = fmax(nd, fabs(e[i] + h * ae) / L->sc[0]);
+            nd = fmax(nd, fabs(h * aP) / L->sc[1]);
+            nd = fmax(nd, fabs(L->z[2] - o[i].Pphi) / L->sc_pphi);
+        }
+        if (!isfinite(nd)) return GCP_STEP_FAILED;
+        /* the slopes, and the points moved to the stage values they give */
+        for (int i = 0; i < s; i++) {
+            double ae = 0.0;
+            for (int j = 0; j < s; j++) ae += T->a[i][j] * d[2 * j];
+            const double dPphi = L->z[2] - o[i].Pphi, deta = e[i] + h * ae;
+            p[i][0] += o[i].dp[0][0] * dPphi + o[i].dp[0][1] * deta;
+            p[i][1] += o[i].dp[1][0] * dPphi + o[i].dp[1][1] * deta;
+        }
+        for (int i = 0; i < s; i++) K[i][0] += d[2 * i], K[i][1] += d[2 * i + 1];
+        /* converged: this update at the tolerance, or the next one (a
+         * contraction theta = nd/nprev leaves theta/(1 - theta) nd) below it
+         * (Hairer & Wanner, Solving ODEs II, sec. IV.8), or stalled at the
+         * round-off floor */
+        const double th = nd / nprev;
+        const int next_below = it > 0 && th < 1.0 && th / (1.0 - th) * nd <= GL_TOL;
+        /* from the third iterate on (the first update carries the predicted
+         * points' chart residual), an update that shrinks less than 2x above
+         * the round-off floor with a DF fresh from this step: the iteration
+         * diverges or crawls (a healthy step contracts 20x or more), i.e. a
+         * guess too far off or a step far beyond what the method resolves --
+         * the lifted step is abandoned rather than crawl to a floor that the
+         * stall test would accept */
+        const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
+        if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
+        if (nd <= GL_TOL || next_below || stalled) {
+            gl_finish(T, L, h, K, pd);
+            /* the end point's guess for from_canon: the polynomial through
+             * the last step's stage points, the start and this step's stages
+             * at 1; then the stage points kept for the next predictor */
+            double pe[2];
+            gl_points_extrap(T, L, p, 1.0, pe);
+            memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
+            for (int r = 0; r < 2; r++) {
+                L->aux[0][r] = pe[r];
+                for (int j = 0; j < s; j++) L->aux[1 + j][r] = p[j][r];
+            }
+            L->have_P = L->have_P ? 2 : 1;
+            return 0;
+        }
+        nprev = nd;
+    }
+    return GCP_STEP_FAILED;
+}
+
+/* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged).
+ * The lifted solver where the chart has lift_eval, the inverting one where
+ * it has not or where the lifted one fails (a guess too far off). */
+int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                      double h)
+{
+    if (C->chart.lift_eval && C->sundman_a == 0.0) {
+        /* gl_step_lift changes only the Jacobian fields of L until it succeeds */
+        if (gl_step_lift(C, k, L, h) == 0) return 0;
+        L->have_J = 0;
+    }
+    const int r = gl_step_invert(C, k, L, h);
+    /* its aux[1 + i] are this step's stage points, aux[0] the start's */
+    if (!r) L->have_P = 1;
+    return r;
 }
 
 int gcp_gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t, void *vlane)
@@ -300,12 +547,13 @@ int gcp_gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t,
      * P_eta's change for a change |p| of p_par. */
     const double r = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
     double zp[4], auxp[2];
-    L->sc[0] = 0.0;
+    L->sc[0] = L->sc_pphi = 0.0;
     for (int j = 0; j < 3; j++) {
         double Xp[3] = {X[0], X[1], X[2]};
         Xp[j] += 1e-4 * r;
         if (C->chart.to_canon(&C->chart, &k, Xp, b->ppar[i], zp, auxp)) continue;
         L->sc[0] = fmax(L->sc[0], fabs(zp[1] - L->z[1]) * 1e4);
+        L->sc_pphi = fmax(L->sc_pphi, fabs(zp[2] - L->z[2]) * 1e4);
     }
     struct gcp_field_sample fs = {.need = GCP_NEED_B};
     gcp_field_eval(C->chart.field, t, X, &fs);

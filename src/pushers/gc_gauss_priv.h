@@ -24,13 +24,20 @@ struct gl_ctx {
 
 struct gl_lane {
     double z[4];                /* canonical state */
-    double aux[GL_SMAX + 1][2]; /* chart guesses: [0] the state, [1 + i] stage i */
+    double aux[GL_SMAX + 1][2]; /* chart guesses: [0] the state, [1 + i] stage i (after a
+                                 * step by the lifted solver: [0] a guess of the end point,
+                                 * [1 + i] the stage points themselves) */
     double K[GL_SMAX][2];       /* last step's stage slopes (d eta, d P_eta) */
     double K2[GL_SMAX][2];      /* the step's before */
     double J[16];               /* LU of the stage Jacobian (2s x 2s) */
     int piv[4];
     int have_K, have_J;
     double sc[2];               /* [eta unit, P_eta unit] scales of eta and P_eta */
+    double sc_pphi;             /* [kg m^2/s] scale of P_phi (chart residual of a stage point) */
+    double DF[GL_SMAX][2][2];   /* the stage Jacobians of F behind J (lifted solver) */
+    double Jinv[16];            /* J^-1 (lifted solver: a product, not a solve, per iteration) */
+    double pst2[GL_SMAX][2];    /* the stage points of the step before the last (lifted solver) */
+    int have_P;                 /* steps whose stage points are kept: 0, 1 (aux[1 + i]), 2 (+ pst2) */
     double hJ;                  /* step of the kept Jacobian */
     double t;                   /* [s] physical time (advanced by the step) */
     double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */

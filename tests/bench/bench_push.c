@@ -25,7 +25,8 @@
  *
  * Part 3 (issue 11): guiding-centre methods, cost per step against gc-rk4.
  *
- * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests) */
+ * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests)
+ *        bench_push gc        (part 3 alone: the guiding-centre methods of issue 11) */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -550,6 +551,10 @@ int main(int argc, char **argv)
         if (argc > 2) scale = atof(argv[2]);
         if (!(scale > 0.0)) scale = 1.0;
         limit_rows();
+        return 0;
+    }
+    if (argc > 1 && strcmp(argv[1], "gc") == 0) { /* part 3 alone */
+        part_gc();
         return 0;
     }
     if (argc > 1) scale = atof(argv[1]);
