@@ -110,6 +110,9 @@ static int32_t fo_lane(struct gcp_block *b, size_t i, const struct gcp_field *f,
         if (rc != GSL_SUCCESS || !(taken > 0.0) ||
             (t < t1 && taken < hmin_rel * (fabs(t) + t_span))) {
             status = rc == GSL_EBADFUNC && c.status ? c.status : GCP_STEP_FAILED;
+            if (status == GCP_STEP_FAILED)
+                gcp_lane_fail(b, i, rc != GSL_SUCCESS ? GCP_FAIL_SOLVER_ERROR
+                                                      : GCP_FAIL_STEP_UNDERFLOW);
             memcpy(y, yg, sizeof y);
             t = tg;
             break;
@@ -138,7 +141,8 @@ static size_t fo_rk8pd_advance(struct gcp_block *b, const struct gcp_field *f,
                       gsl_odeiv2_control_y_new(tol, tol), gsl_odeiv2_evolve_alloc(6)};
     double *hs = malloc(b->n * sizeof(double));
     if (!ok || !w.step || !w.ctrl || !w.ev || !hs) {
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        for (size_t i = 0; i < n; i++)
+            b->status[i] = gcp_lane_fail(b, i, ok ? GCP_FAIL_NO_MEMORY : GCP_FAIL_BAD_OPTIONS);
         n = gcp_block_retire(b, n, o->t0, 0);
     }
     gsl_error_handler_t *old = gsl_set_error_handler_off();

@@ -84,6 +84,7 @@ struct lane_state {
     double y[4], ya[4];
     double t, ta, h, Ls, Ps;
     int32_t stop; /* status of a stop at t, reported at the next sampling time after it */
+    int32_t why;  /* enum gcp_step_failure of a STEP_FAILED stop */
 };
 
 /* Starts lane i at b->t[i] with first trial step h. */
@@ -104,6 +105,7 @@ static void lane_init(struct lane_state *L, const struct gcp_block *b, size_t i,
     L->t = L->ta = b->t[i];
     L->h = h;
     L->stop = 0;
+    L->why = GCP_FAIL_NONE;
 }
 
 static void lane_put(struct gcp_block *b, size_t i, const struct lane_state *L, const double y[4])
@@ -141,6 +143,7 @@ static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f
         if (rc != GSL_SUCCESS || !(taken > 0.0) ||
             (L->t < t_end && taken < hmin_rel * (fabs(L->t) + t_span))) {
             L->stop = rc == GSL_EBADFUNC && c.status ? c.status : GCP_STEP_FAILED;
+            L->why = rc != GSL_SUCCESS ? GCP_FAIL_SOLVER_ERROR : GCP_FAIL_STEP_UNDERFLOW;
             memcpy(L->y, yg, sizeof yg);
             L->t = tg;
             break;
@@ -177,6 +180,7 @@ static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f
         /* the stages were evaluated inside an accepted step: cannot fail
          * but through the field; report it as the lane's stop */
         L->stop = c.status ? c.status : GCP_STEP_FAILED;
+        L->why = GCP_FAIL_SOLVER_ERROR;
         lane_put(b, i, L, L->ya);
         b->t[i] = L->ta;
         return L->stop;
@@ -196,7 +200,7 @@ static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
                             gsl_odeiv2_evolve_alloc(4)};
     struct lane_state *ls = malloc(b->n * sizeof *ls);
     if (!w.step || !w.ctrl || !w.ev || !ls) {
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        for (size_t i = 0; i < n; i++) b->status[i] = gcp_lane_fail(b, i, GCP_FAIL_NO_MEMORY);
         n = gcp_block_retire(b, n, o->t0, 0);
     }
     gsl_error_handler_t *old = gsl_set_error_handler_off();
@@ -210,7 +214,10 @@ static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
     for (int64_t k = 0; k < o->nsteps && n > 0; k += chunk) {
         const int64_t kn = k + chunk < o->nsteps ? k + chunk : o->nsteps;
         const double t1 = kn == o->nsteps ? t_end : o->t0 + (double)kn * o->dt;
-        for (size_t i = 0; i < n; i++) b->status[i] = lane_run(b, i, f, o, &w, &ls[i], t1, t_end);
+        for (size_t i = 0; i < n; i++) {
+            b->status[i] = lane_run(b, i, f, o, &w, &ls[i], t1, t_end);
+            if (b->status[i] == GCP_STEP_FAILED) b->step_failure[i] = ls[i].why;
+        }
         /* retire stopped lanes, each with its own t and steps (already set) */
         size_t i = 0;
         while (i < n) {

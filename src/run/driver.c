@@ -185,6 +185,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             }
             b.index[i] = (size_t)i;
             b.status[i] = 0;
+            b.step_failure[i] = 0;
             b.steps[i] = 0;
             b.t[i] = t0;
             /* loss-cone classification at the start (dipole; NaN elsewhere) */
@@ -276,6 +277,11 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
                 res->u[3 * row + 2] = b.uz[i];
             }
             res->status[row] = b.status[i];
+            /* a STEP_FAILED particle always has a reason (issue 11):
+             * UNSPECIFIED where its stepper gave none */
+            res->step_failure[row] = b.status[i] != GCP_STEP_FAILED ? GCP_FAIL_NONE
+                                     : b.step_failure[i]          ? b.step_failure[i]
+                                                                  : GCP_FAIL_UNSPECIFIED;
             res->steps[row] = b.steps[i];
             /* The block's CPU time, shared in proportion to steps taken. */
             res->cpu[row] = total_steps ? spent * (double)b.steps[i] / (double)total_steps : 0.0;

@@ -1,0 +1,136 @@
+/* The evolve layer: the one block loop of every fixed-step pusher
+ * (contract in evolve_priv.h).  Steppers: the full-orbit drift-kick-drift
+ * (fo_step.c), gc-rk4 (gc_rk4.c), the per-lane implicit guiding-centre
+ * methods (gc_lanes.c: gc-gl2, gc-gl4, gc-midpoint-pphi). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/particles.h"
+#include "block_priv.h"
+#include "evolve_priv.h"
+#include "gc_priv.h"
+
+/* gcp_block_retire's semantics, carrying the lanes' solver states (sz
+ * bytes each, tmp: one lane of scratch) and the field's verdict fstatus
+ * along (a step's failures retire before its classification reads it). */
+static size_t evolve_retire(struct gcp_block *b, unsigned char *L, size_t sz, unsigned char *tmp,
+                            size_t n, double t, int64_t steps)
+{
+    size_t i = 0;
+    while (i < n) {
+        if (b->status[i] != GCP_ALIVE) {
+            b->t[i] = t;
+            b->steps[i] += steps;
+            gcp_lane_failure_default(b, i);
+            gcp_block_swap_lanes(b, i, n - 1);
+            const int32_t fs = b->fstatus[i];
+            b->fstatus[i] = b->fstatus[n - 1], b->fstatus[n - 1] = fs;
+            if (sz) {
+                memcpy(tmp, L + i * sz, sz);
+                memcpy(L + i * sz, L + (n - 1) * sz, sz);
+                memcpy(L + (n - 1) * sz, tmp, sz);
+            }
+            n--;
+        } else {
+            i++;
+        }
+    }
+    return n;
+}
+
+/* Every live lane fails before the first step with `reason`. */
+static size_t fail_all(struct gcp_block *b, size_t n, double t0, int reason)
+{
+    for (size_t i = 0; i < n; i++) b->status[i] = gcp_lane_fail(b, i, reason);
+    b->n_active = gcp_block_retire(b, n, t0, 0);
+    return b->n_active;
+}
+
+int32_t gcp_evolve_gc_check(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                            double t, int first)
+{
+    (void)ctx;
+    if (first) return 0;
+    const double q = b->q, m = b->m, amax = ev->o->adiabaticity_max;
+    int32_t any = 0;
+    for (size_t i = 0; i < n; i++) {
+        const double X[3] = {b->x[i], b->y[i], b->z[i]};
+        double dX[3], dp;
+        b->fstatus[i] = gcp_gc_eval(ev->f, t, q, m, X, b->ppar[i], b->mu[i], amax, dX, &dp);
+        any |= b->fstatus[i];
+    }
+    return any;
+}
+
+size_t gcp_evolve(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o,
+                  const struct gcp_sampler *s, const struct gcp_stepper *st, void *ctx)
+{
+    const int gc = st->gc;
+    /* begin: a guiding centre is classified at t0 (its verdict needs the
+     * field); a full orbit was classified when its block was filled
+     * (gcp_block_start) */
+    size_t n = gc ? gcp_gc_block_begin(b, f, o) : b->n_active;
+    if (n == 0) return 0;
+    const size_t sz = st->lane_size;
+    const size_t wsz = st->work_size ? st->work_size(b->n) : 0;
+    unsigned char *L = sz ? malloc((b->n + 1) * sz) : NULL;
+    void *work = wsz ? malloc(wsz) : NULL;
+    if ((sz && !L) || (wsz && !work)) {
+        free(L);
+        free(work);
+        return fail_all(b, n, o->t0, GCP_FAIL_NO_MEMORY);
+    }
+    unsigned char *tmp = sz ? L + b->n * sz : NULL;
+    const struct gcp_evolve ev = {
+        .f = f,
+        .o = o,
+        .need = GCP_NEED_B | (gc ? GCP_NEED_GRADB : 0u) | (f->has_E ? GCP_NEED_E : 0u),
+        .has_E = f->has_E,
+        .work = work,
+    };
+    if (st->init) {
+        int any = 0;
+        for (size_t i = 0; i < n; i++) {
+            const int r = st->init(&ev, ctx, b, i, o->t0, L + i * sz);
+            if (r) b->status[i] = r, any = 1;
+        }
+        if (any) n = evolve_retire(b, L, sz, tmp, n, o->t0, 0);
+    }
+    if (st->relanes) st->relanes(&ev, ctx, b, n);
+    const double h = o->dt;
+    const int64_t every = s && s->fn ? s->every : 0;
+    int64_t k = 0;
+    for (; k < o->nsteps && n > 0; k++) {
+        const double t = o->t0 + (double)k * h;
+        /* the start of the step: stopped lanes leave with its state and time */
+        if (st->start) {
+            while (n > 0 && st->start(&ev, ctx, b, n, t, k == 0)) {
+                if (!gcp_block_classify(b, n, f, gc)) break;
+                n = evolve_retire(b, L, sz, tmp, n, t, k);
+                b->n_active = n;
+                if (st->relanes) st->relanes(&ev, ctx, b, n);
+            }
+            if (n == 0) break;
+        }
+        int32_t failed = 0;
+        if (st->step) {
+            failed = st->step(&ev, ctx, b, n, t, h);
+        } else {
+            for (size_t i = 0; i < n; i++) {
+                const int r = st->step_lane(&ev, ctx, b, i, t, h, L + i * sz);
+                if (r) b->status[i] = r, failed = 1;
+            }
+        }
+        int moved = 0;
+        if (failed) n = evolve_retire(b, L, sz, tmp, n, t, k), moved = 1;
+        if (gcp_block_classify(b, n, f, gc)) n = evolve_retire(b, L, sz, tmp, n, t + h, k + 1), moved = 1;
+        if (moved && st->relanes) st->relanes(&ev, ctx, b, n);
+        b->n_active = n;
+        if (every && (k + 1) % every == 0) s->fn(b, t + h, s->ctx);
+    }
+    gcp_block_finish(b, n, o->t0 + (double)k * h, k);
+    free(L);
+    free(work);
+    return n;
+}

@@ -1,0 +1,92 @@
+/* Private to the pushers: the evolve layer (evolve.c), GSL's
+ * step < evolve < driver split applied to blocks of lanes.
+ *
+ * A stepper supplies only its step over the live lanes of a block (a kick
+ * with its drifts, the stages of a Runge-Kutta method, or one implicit
+ * solve per lane); gcp_evolve owns everything around it, once for every
+ * method:
+ *
+ *   begin      options checked (dt > 0 and finite, nsteps >= 0, t0 finite;
+ *              else every live lane STEP_FAILED / BAD_OPTIONS), guiding
+ *              centres classified at t0 (gcp_gc_block_begin: non-finite,
+ *              the field's domain, B*_par > 0, adiabaticity)
+ *   init       each lane's solver state (lane_size bytes per lane)
+ *   per step   start-of-step check (the stepper's `start`: a verdict per
+ *              lane in b->fstatus, classified and retired at (t, k)),
+ *              the step, lanes the step failed retired at (t, k) with the
+ *              state of the start of the step, classification of the rest
+ *              (non-finite, the field's verdict, the bounds) retired at
+ *              (t + h, k + 1), lane states carried along, the sampler every
+ *              `every` steps, and at the end gcp_block_finish.
+ *
+ * The field's need bits and has_E are fixed when the evolve is built
+ * (struct gcp_evolve), so no stepper re-checks them per lane or per stage.
+ *
+ * A new guiding-centre method is one file: its lane state, `init`, and
+ * `step_lane` (or the block form `step`), one `struct gcp_stepper`, a call
+ * of gcp_evolve from its gcp_pusher_type.advance, and one line in the
+ * registry (fo_step.c all_pushers). */
+#ifndef GCPUSH_EVOLVE_PRIV_H
+#define GCPUSH_EVOLVE_PRIV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gcpush/field.h"
+#include "gcpush/pusher.h"
+
+/* What every hook sees: fixed for the whole push. */
+struct gcp_evolve {
+    const struct gcp_field *f;
+    const struct gcp_push_opts *o;
+    unsigned need;        /* field need bits: B, grad B (guiding centre), E when has_E */
+    int has_E;            /* [bool] the field has an electric field */
+    void *work;           /* the stepper's block scratch (work_size bytes), or NULL */
+};
+
+struct gcp_stepper {
+    int gc;               /* [bool] guiding-centre state (X, p_par, mu) rather than (x, u) */
+    size_t lane_size;     /* [bytes] of one lane's solver state (0: none) */
+    /* [bytes] of block scratch for a block of nlanes lanes (NULL: none) */
+    size_t (*work_size)(size_t nlanes);
+    /* Optional: lane i's state at time t; 0 or a status (the lane retires at t0). */
+    int (*init)(const struct gcp_evolve *ev, void *ctx, const struct gcp_block *b, size_t i,
+                double t, void *lane);
+    /* Optional: the live lanes [0, n) were renumbered (at the start and after
+     * every retirement): per-lane scratch that is not carried must be redone. */
+    void (*relanes)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n);
+    /* Optional: the check at the start of a step at t (first: k = 0, which
+     * begin already checked for guiding centres).  Writes a verdict for each
+     * of the n lanes into b->fstatus (0: go on) and returns non-zero when any
+     * lane stops; the evolve layer classifies and retires those at (t, k)
+     * and calls start again on the rest. */
+    int32_t (*start)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                     double t, int first);
+    /* The step of size h from t over the n live lanes (block form).  On
+     * success a lane holds its new state and the field's status of the step
+     * in b->fstatus; a lane the step cannot take keeps the state of the
+     * start of the step and gets a non-zero b->status (STEP_FAILED with a
+     * reason: gcp_lane_fail).  Returns non-zero when any lane failed. */
+    int32_t (*step)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                    double t, double h);
+    /* Or the same for one lane with its state (used when step is NULL):
+     * returns 0 or the lane's status, as gcp_gc_lane_ops.step. */
+    int (*step_lane)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
+                     double t, double h, void *lane);
+};
+
+/* Pushes the live lanes of b by up to o->nsteps fixed steps of o->dt from
+ * o->t0 with stepper st (its context ctx); the gcp_advance_fn contract:
+ * statuses set, stopped lanes retired with their time and steps, returns
+ * the live lane count (b->n_active). */
+size_t gcp_evolve(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o,
+                  const struct gcp_sampler *s, const struct gcp_stepper *st, void *ctx);
+
+/* The start-of-step check of the per-lane guiding-centre methods:
+ * gcp_gc_eval at (t, X, p_par) with opts->adiabaticity_max (B*_par > 0,
+ * finite right-hand side, the field's status, adiabaticity); skipped at
+ * the first step, which begin checked. */
+int32_t gcp_evolve_gc_check(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                            double t, int first);
+
+#endif
