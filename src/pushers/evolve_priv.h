@@ -32,6 +32,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include <gsl/gsl_odeiv2.h>
+
 #include "gcpush/field.h"
 #include "gcpush/pusher.h"
 
@@ -42,6 +44,11 @@ struct gcp_evolve {
     unsigned need;        /* field need bits: B, grad B (guiding centre), E when has_E */
     int has_E;            /* [bool] the field has an electric field */
     void *work;           /* the stepper's block scratch (work_size bytes), or NULL */
+    /* adaptive methods (gcp_evolve_adaptive) only: */
+    double t_end;         /* [s] t0 + nsteps dt, where every lane ends */
+    gsl_odeiv2_step *gsl_step;     /* the method's stepper, one per push */
+    gsl_odeiv2_control *gsl_control; /* the error control: y_new(tol, tol) */
+    gsl_odeiv2_evolve *gsl_evolve;
 };
 
 struct gcp_stepper {
@@ -81,6 +88,43 @@ struct gcp_stepper {
  * the live lane count (b->n_active). */
 size_t gcp_evolve(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o,
                   const struct gcp_sampler *s, const struct gcp_stepper *st, void *ctx);
+
+/* Adaptive methods whose lanes each choose their own steps (gc-rk45,
+ * gc-rk8pd, fo-rk8pd): the evolve layer owns begin (as above; a full
+ * orbit's options are checked too), the lane states, the slicing of the
+ * push at the sampling times t0 + j every dt (or one slice to t_end),
+ * retirement of lanes that stopped (each with its own time and steps), the
+ * sampler, and the GSL error control (gcp_evolve_adaptive_step: one
+ * accepted step, or a failure with its reason).  The method supplies init
+ * (its lane state at t0; b->t[i] = t0 already) and run: lane i advanced to
+ * t1 (or its stop before t1), its state, b->t[i] and b->steps[i] written;
+ * returns 0 (alive at t1) or the lane's status (STEP_FAILED with a reason
+ * in b->step_failure[i]). */
+struct gcp_adaptive_stepper {
+    int gc;                            /* [bool] guiding-centre state */
+    size_t lane_size;                  /* [bytes] of one lane's state */
+    const gsl_odeiv2_step_type *type;  /* GSL stepper */
+    size_t dim;                        /* ODE dimension */
+    double tol_default;                /* [1] when opts->tolerance is 0 */
+    int (*init)(const struct gcp_evolve *ev, void *ctx, const struct gcp_block *b, size_t i,
+                void *lane);
+    int32_t (*run)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
+                   double t1, void *lane);
+};
+size_t gcp_evolve_adaptive(struct gcp_block *b, const struct gcp_field *f,
+                           const struct gcp_push_opts *o, const struct gcp_sampler *s,
+                           const struct gcp_adaptive_stepper *st, void *ctx);
+
+/* The adaptive control: one accepted step of sys from *t towards t_lim
+ * with trial step *h (gsl_odeiv2_evolve_apply under the error control).
+ * Returns 0 with *t, *h, y advanced; or, with y and *t left as they were, the
+ * right-hand side's refusal (*rhs_status, set by sys's function; reset to 0
+ * here) or GCP_STEP_FAILED with *why = SOLVER_ERROR (GSL failed) or
+ * STEP_UNDERFLOW (no step above round-off, h < 1e3 DBL_EPSILON (|t| +
+ * t_end - t0), short of t_lim: GSL would crawl on at 1 ulp per step). */
+int32_t gcp_evolve_adaptive_step(const struct gcp_evolve *ev, gsl_odeiv2_system *sys, double *t,
+                                 double t_lim, double *h, double *y, int *rhs_status,
+                                 int32_t *why);
 
 /* The start-of-step check of the per-lane guiding-centre methods:
  * gcp_gc_eval at (t, X, p_par) with opts->adiabaticity_max (B*_par > 0,
