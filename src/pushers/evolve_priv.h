@@ -31,11 +31,15 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 
 #include <gsl/gsl_odeiv2.h>
 
 #include "gcpush/field.h"
+#include "gcpush/particles.h"
 #include "gcpush/pusher.h"
+#include "block_priv.h"
+#include "gc_priv.h"
 
 /* What every hook sees: fixed for the whole push. */
 struct gcp_evolve {
@@ -88,6 +92,92 @@ struct gcp_stepper {
  * the live lane count (b->n_active). */
 size_t gcp_evolve(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o,
                   const struct gcp_sampler *s, const struct gcp_stepper *st, void *ctx);
+
+/* gcp_block_retire's semantics, carrying the lanes' solver states (sz bytes
+ * each, tmp: one lane of scratch) and the field's verdict fstatus along (a
+ * step's failures retire before its classification reads it). */
+size_t gcp_evolve_retire(struct gcp_block *b, unsigned char *L, size_t sz, unsigned char *tmp,
+                         size_t n, double t, int64_t steps);
+/* Every live lane fails before the first step with `reason`; returns 0. */
+size_t gcp_evolve_fail_all(struct gcp_block *b, size_t n, double t0, int reason);
+
+/* gcp_evolve's loop itself, for a stepper known at compile time (a static
+ * const struct gcp_stepper): the compiler then inlines its hooks into the
+ * loop, so the per-step cost of the layer is that of a hand-written loop
+ * (64-lane blocks, the driver's, take ~200 ns a step). */
+static inline __attribute__((always_inline)) size_t
+gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o,
+                  const struct gcp_sampler *s, const struct gcp_stepper *st, void *ctx)
+{
+    const int gc = st->gc;
+    /* begin: a guiding centre is classified at t0 (its verdict needs the
+     * field); a full orbit was classified when its block was filled
+     * (gcp_block_start) */
+    size_t n = gc ? gcp_gc_block_begin(b, f, o) : b->n_active;
+    if (n == 0) return 0;
+    const size_t sz = st->lane_size;
+    const size_t wsz = st->work_size ? st->work_size(b->n) : 0;
+    unsigned char *L = sz ? malloc((b->n + 1) * sz) : NULL;
+    /* cache-line aligned: steppers lay SoA scratch out in it */
+    void *work = wsz ? aligned_alloc(64, (wsz + 63) / 64 * 64) : NULL;
+    if ((sz && !L) || (wsz && !work)) {
+        free(L);
+        free(work);
+        return gcp_evolve_fail_all(b, n, o->t0, GCP_FAIL_NO_MEMORY);
+    }
+    unsigned char *tmp = sz ? L + b->n * sz : NULL;
+    const struct gcp_evolve ev = {
+        .f = f,
+        .o = o,
+        .need = GCP_NEED_B | (gc ? GCP_NEED_GRADB : 0u) | (f->has_E ? GCP_NEED_E : 0u),
+        .has_E = f->has_E,
+        .work = work,
+    };
+    if (st->init) {
+        int any = 0;
+        for (size_t i = 0; i < n; i++) {
+            const int r = st->init(&ev, ctx, b, i, o->t0, L + i * sz);
+            if (r) b->status[i] = r, any = 1;
+        }
+        if (any) n = gcp_evolve_retire(b, L, sz, tmp, n, o->t0, 0);
+    }
+    if (st->relanes) st->relanes(&ev, ctx, b, n);
+    const double h = o->dt;
+    const int64_t every = s && s->fn ? s->every : 0;
+    int64_t k = 0;
+    for (; k < o->nsteps && n > 0; k++) {
+        const double t = o->t0 + (double)k * h;
+        /* the start of the step: stopped lanes leave with its state and time */
+        if (st->start) {
+            while (n > 0 && st->start(&ev, ctx, b, n, t, k == 0)) {
+                if (!gcp_block_classify(b, n, f, gc)) break;
+                n = gcp_evolve_retire(b, L, sz, tmp, n, t, k);
+                b->n_active = n;
+                if (st->relanes) st->relanes(&ev, ctx, b, n);
+            }
+            if (n == 0) break;
+        }
+        int32_t failed = 0;
+        if (st->step) {
+            failed = st->step(&ev, ctx, b, n, t, h);
+        } else {
+            for (size_t i = 0; i < n; i++) {
+                const int r = st->step_lane(&ev, ctx, b, i, t, h, L + i * sz);
+                if (r) b->status[i] = r, failed = 1;
+            }
+        }
+        int moved = 0;
+        if (failed) n = gcp_evolve_retire(b, L, sz, tmp, n, t, k), moved = 1;
+        if (gcp_block_classify(b, n, f, gc)) n = gcp_evolve_retire(b, L, sz, tmp, n, t + h, k + 1), moved = 1;
+        if (moved && st->relanes) st->relanes(&ev, ctx, b, n);
+        b->n_active = n;
+        if (every && (k + 1) % every == 0) s->fn(b, t + h, s->ctx);
+    }
+    gcp_block_finish(b, n, o->t0 + (double)k * h, k);
+    free(L);
+    free(work);
+    return n;
+}
 
 /* Adaptive methods whose lanes each choose their own steps (gc-rk45,
  * gc-rk8pd, fo-rk8pd): the evolve layer owns begin (as above; a full

@@ -132,7 +132,7 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
         memset(b->Ez, 0, b->n * sizeof(double));
     }
     const struct gcp_push_opts o = {.t0 = t0, .dt = dt, .nsteps = nsteps};
-    return gcp_evolve(b, f, &o, sampler, &fo_stepper, &c);
+    return gcp_evolve_inline(b, f, &o, sampler, &fo_stepper, &c);
 }
 
 size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,

@@ -259,11 +259,14 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
  * the validity verdict of every lane; the layer retires stopped lanes and
  * calls it again on the rest), stages 2 to 4 and the update are the step.
  * Block scratch: k1 of every lane (4 N doubles) and one chunk. */
-static size_t rk4_work_size(size_t N) { return 4 * N * sizeof(double) + sizeof(struct rk4_chunk); }
+static size_t rk4_chunk_offset(size_t N) { return (4 * N * sizeof(double) + 63) / 64 * 64; }
 
+static size_t rk4_work_size(size_t N) { return rk4_chunk_offset(N) + sizeof(struct rk4_chunk); }
+
+/* The chunk after k1, on a cache line of its own (work is 64-byte aligned). */
 static struct rk4_chunk *rk4_chunk_of(const struct gcp_evolve *ev, const struct gcp_block *b)
 {
-    return (struct rk4_chunk *)((double *)ev->work + 4 * b->n);
+    return (struct rk4_chunk *)((unsigned char *)ev->work + rk4_chunk_offset(b->n));
 }
 
 static int32_t rk4_start(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
@@ -297,7 +300,7 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
     (void)p;
     const double mc = b->m * GCP_C_LIGHT;
     struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT), 1.0 / b->m};
-    return gcp_evolve(b, f, o, s, &rk4_stepper, &kc);
+    return gcp_evolve_inline(b, f, o, s, &rk4_stepper, &kc);
 }
 
 const struct gcp_pusher_type gcp_pusher_gc_rk4 = {
