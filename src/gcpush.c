@@ -238,7 +238,8 @@ static void log_step_failures(const struct gcp_scene *sc, const struct gcp_resul
         }
         fprintf(stderr, "gcpush: particle %lld STEP_FAILED (%s) at t = %.9g s: %s (%s)\n",
                 (long long)r->id[k], sc->pusher->name, r->t[k],
-                gcp_step_failure_name(r->step_failure[k]), gcp_step_failure_doc(r->step_failure[k]));
+                gcp_step_failure_name(r->step_failure[k]),
+                gcp_step_failure_doc(r->step_failure[k]));
     }
     if (more)
         fprintf(stderr, "gcpush: ... and %lld more STEP_FAILED particles on this rank "

@@ -9,8 +9,9 @@
  *
  * Format (native byte order; the same machine family writes and reads):
  *   "GCPCKPT3" (3: with the step_failure column), int64 S, int64 rows,
- *   int64 len, run text, int64 len, run path, double rank_cpu, then each column of struct gcp_results in table order,
- *   then int64 events and the events (struct gcp_event, invariants.h). */
+ *   int64 len, run text, int64 len, run path, double rank_cpu, then each
+ *   column of struct gcp_results in table order, then int64 events and the
+ *   events (struct gcp_event, invariants.h). */
 #include <errno.h>
 #include <dirent.h>
 #include <stdio.h>

@@ -168,7 +168,8 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
         }
         int moved = 0;
         if (failed) n = gcp_evolve_retire(b, L, sz, tmp, n, t, k), moved = 1;
-        if (gcp_block_classify(b, n, f, gc)) n = gcp_evolve_retire(b, L, sz, tmp, n, t + h, k + 1), moved = 1;
+        if (gcp_block_classify(b, n, f, gc))
+            n = gcp_evolve_retire(b, L, sz, tmp, n, t + h, k + 1), moved = 1;
         if (moved && st->relanes) st->relanes(&ev, ctx, b, n);
         b->n_active = n;
         if (every && (k + 1) % every == 0) s->fn(b, t + h, s->ctx);

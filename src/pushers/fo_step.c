@@ -106,7 +106,8 @@ static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block
     f->type->eval_block(f, t + h, n, b->x, b->y, b->z, b->Bx, b->By, b->Bz, c->Ex, c->Ey, c->Ez,
                         b->fstatus);
     if (c->kick_B) c->kick_B(n, b->ux, b->uy, b->uz, b->Bx, b->By, b->Bz, b->q, b->m, dt);
-    else c->p->kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
+    else
+        c->p->kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
     half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
     drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
     return 0;

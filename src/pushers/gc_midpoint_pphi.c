@@ -326,9 +326,11 @@ static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane 
         u[3] = L->p + r * L->dprev[3];
     } else {
         double k1[4], k2[4], cm[3];
-        if (vi_rates(C, t, L->c, L->p, k1) == GCP_NONFINITE) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
+        if (vi_rates(C, t, L->c, L->p, k1) == GCP_NONFINITE)
+            return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         for (int d = 0; d < 3; d++) cm[d] = L->c[d] + 0.5 * h * k1[d];
-        if (vi_rates(C, t + 0.5 * h, cm, L->p + 0.5 * h * k1[3], k2) == GCP_NONFINITE) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
+        if (vi_rates(C, t + 0.5 * h, cm, L->p + 0.5 * h * k1[3], k2) == GCP_NONFINITE)
+            return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         for (int d = 0; d < 3; d++) u[d] = L->c[d] + h * k2[d];
         u[3] = L->p + h * k2[3];
     }
