@@ -221,6 +221,31 @@ static void summary(const struct gcp_scene *sc, const struct gcp_results *r, MPI
     printf("output: %s\n", sc->output);
 }
 
+/* Issue 11: one line on stderr per particle of this rank that ended
+ * STEP_FAILED, with its id, the method, the time and the reason (in the
+ * output as /particles/final/step_failure), the first GCP_FAILED_LOG_MAX
+ * of them and then a count, so a run where every particle fails leaves a
+ * readable log. */
+#define GCP_FAILED_LOG_MAX 100
+static void log_step_failures(const struct gcp_scene *sc, const struct gcp_results *r)
+{
+    int64_t shown = 0, more = 0;
+    for (int64_t k = 0; k < r->n; k++) {
+        if (r->status[k] != GCP_STEP_FAILED) continue;
+        if (shown++ >= GCP_FAILED_LOG_MAX) {
+            more++;
+            continue;
+        }
+        fprintf(stderr, "gcpush: particle %lld STEP_FAILED (%s) at t = %.9g s: %s (%s)\n",
+                (long long)r->id[k], sc->pusher->name, r->t[k],
+                gcp_step_failure_name(r->step_failure[k]),
+                gcp_step_failure_doc(r->step_failure[k]));
+    }
+    if (more)
+        fprintf(stderr, "gcpush: ... and %lld more STEP_FAILED particles on this rank "
+                        "(reasons in /particles/final/step_failure)\n", (long long)more);
+}
+
 /* Peak bytes one of nranks ranks holds: its rows in arrays grown by
  * doubling (up to twice the rows), plus the larger of the sort's copy of
  * one column with its permutation and the parallel write's two copies of
@@ -530,6 +555,7 @@ int main(int argc, char **argv)
             fprintf(stderr, "gcpush: warning: a periodic checkpoint failed (%s)\n",
                     ctx.ckpt_err.code ? ctx.ckpt_err.msg : "on another rank");
         rc = gcp_results_sort(&res);
+        if (rc == 0) log_step_failures(sc, &res);
         int bad = rc != 0;
         MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
         if (!bad) rc = gcp_output_write(sc, &res, comm, &err);

@@ -14,6 +14,32 @@ const char *gcp_status_name(int status)
     return status >= 0 && status < GCP_STATUS_COUNT ? status_names[status] : "UNKNOWN";
 }
 
+static const char *const failure_names[GCP_FAIL_COUNT] = {
+    "NONE", "UNSPECIFIED", "NO_CONVERGENCE", "NONFINITE_STAGE", "CHART",
+    "STEP_UNDERFLOW", "BAD_OPTIONS", "UNSUPPORTED", "NO_MEMORY", "SOLVER_ERROR"};
+
+const char *gcp_step_failure_name(int reason)
+{
+    return reason >= 0 && reason < GCP_FAIL_COUNT ? failure_names[reason] : "UNKNOWN";
+}
+
+static const char *const failure_docs[GCP_FAIL_COUNT] = {
+    "not failed",
+    "the stepper gave no reason",
+    "the Newton / fixed-point iteration did not converge",
+    "a stage of the step was not finite, or its Jacobian not finite or singular",
+    "the canonical chart could not be inverted, or the step left it",
+    "the error control needs a step below round-off",
+    "bad push options (dt not finite and positive, nsteps < 0 or t0 not finite)",
+    "the method cannot push in this field",
+    "out of memory for the stepper's work space",
+    "the ODE solver returned an error"};
+
+const char *gcp_step_failure_doc(int reason)
+{
+    return reason >= 0 && reason < GCP_FAIL_COUNT ? failure_docs[reason] : "unknown reason";
+}
+
 /* O+ is the 16O atom (15.99491461957 u, AME2016) less one electron. */
 static const struct gcp_species known[] = {
     {"proton", GCP_E_CHARGE, GCP_M_PROTON},

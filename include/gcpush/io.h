@@ -34,6 +34,7 @@ struct gcp_results {
     double *X0, *ppar0, *mu0; /* [m], [kg m/s], [J/T] initial guiding centre (gc only) */
     double *ppar, *mu;     /* [kg m/s], [J/T] final guiding centre (gc only) */
     int32_t *status;       /* enum gcp_status */
+    int32_t *step_failure; /* enum gcp_step_failure: why a STEP_FAILED particle failed, else 0 */
     int64_t *steps;        /* steps taken */
     double *cpu;           /* [s] CPU time per particle */
     double *traj_t;        /* [s] (n x S), NaN after count */

@@ -37,6 +37,28 @@ enum gcp_status {
 /* "ALIVE", "PRECIPITATED", ... or "UNKNOWN". */
 const char *gcp_status_name(int status);
 
+/* Why a particle ended GCP_STEP_FAILED (issue 11): set by the stepper that
+ * failed, carried with the particle, written to the output
+ * (/particles/final/step_failure) and logged.  NONE for every other status. */
+enum gcp_step_failure {
+    GCP_FAIL_NONE = 0,          /* not failed (or a status other than STEP_FAILED) */
+    GCP_FAIL_UNSPECIFIED = 1,   /* STEP_FAILED by a stepper that gave no reason */
+    GCP_FAIL_NO_CONVERGENCE = 2,/* Newton / fixed-point iteration did not converge */
+    GCP_FAIL_NONFINITE_STAGE = 3,/* a stage was NaN or Inf, or its Jacobian singular */
+    GCP_FAIL_CHART = 4,         /* canonical chart inversion failed or left the chart */
+    GCP_FAIL_STEP_UNDERFLOW = 5,/* adaptive: the error control needs a step below round-off */
+    GCP_FAIL_BAD_OPTIONS = 6,   /* dt not finite and positive, nsteps < 0, t0 not finite */
+    GCP_FAIL_UNSUPPORTED = 7,   /* the method cannot push in this field */
+    GCP_FAIL_NO_MEMORY = 8,     /* the stepper's work space could not be allocated */
+    GCP_FAIL_SOLVER_ERROR = 9,  /* the ODE library returned an error */
+    GCP_FAIL_COUNT = 10
+};
+
+/* "NONE", "NO_CONVERGENCE", ... or "UNKNOWN". */
+const char *gcp_step_failure_name(int reason);
+/* The reason in words, for logs ("the Newton iteration did not converge"). */
+const char *gcp_step_failure_doc(int reason);
+
 struct gcp_species {
     char name[32];  /* "proton", "electron", "alpha", "O+", or the user's name */
     double charge;  /* [C] */

@@ -113,6 +113,7 @@ struct gcp_block {
     double *mu;          /* [J/T] magnetic moment (guiding centre) */
     double *t;           /* [s] time of each lane (set when it stops or at the end) */
     int32_t *status;     /* enum gcp_status */
+    int32_t *step_failure; /* enum gcp_step_failure: why a STEP_FAILED lane failed, else 0 */
     int64_t *steps;      /* steps taken */
     size_t *index;       /* caller's index of the particle in each lane */
     /* scratch for gathered fields, n entries each (owned by the block) */

@@ -8,9 +8,10 @@
  * uninterrupted run writes (timings aside).
  *
  * Format (native byte order; the same machine family writes and reads):
- *   "GCPCKPT1", int64 S, int64 rows, int64 len, run text, int64 len, run path,
- *   double rank_cpu, then each column of struct gcp_results in table order,
- *   then int64 events and the events (struct gcp_event, invariants.h). */
+ *   "GCPCKPT3" (3: with the step_failure column), int64 S, int64 rows,
+ *   int64 len, run text, int64 len, run path, double rank_cpu, then each
+ *   column of struct gcp_results in table order, then int64 events and the
+ *   events (struct gcp_event, invariants.h). */
 #include <errno.h>
 #include <dirent.h>
 #include <stdio.h>
@@ -20,7 +21,7 @@
 #include "gcpush/io.h"
 #include "io_priv.h"
 
-static const char magic[8] = {'G', 'C', 'P', 'C', 'K', 'P', 'T', '2'};
+static const char magic[8] = {'G', 'C', 'P', 'C', 'K', 'P', 'T', '3'};
 
 static int put(FILE *fp, const void *p, size_t n) { return fwrite(p, 1, n, fp) == n ? 0 : -1; }
 static int get(FILE *fp, void *p, size_t n) { return fread(p, 1, n, fp) == n ? 0 : -1; }

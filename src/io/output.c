@@ -124,6 +124,16 @@ static void write_particles(struct writer *w, const struct gcp_scene *sc)
         attr_str(w, ds, "names", names_attr);
         H5Dclose(ds);
     }
+    /* why each STEP_FAILED particle failed (issue 11), an enum like status */
+    {
+        hid_t et = H5Tenum_create(H5T_NATIVE_INT32);
+        for (int32_t v = 0; v < GCP_FAIL_COUNT; v++)
+            if (et < 0 || H5Tenum_insert(et, gcp_step_failure_name(v), &v) < 0) w->bad = 1;
+        if (et >= 0) {
+            write_rows(w, gf, "step_failure", et, 1, 0, 0, r->step_failure);
+            H5Tclose(et);
+        }
+    }
     H5Gclose(gf);
     H5Gclose(g);
 }
@@ -520,6 +530,7 @@ static void write_units(struct writer *w)
         {"particles/final/t", "s"}, {"particles/final/x", "m"}, {"particles/final/u", "m/s"},
         {"particles/final/X", "m"}, {"particles/final/ppar", "kg m/s"},
         {"particles/final/mu", "J/T"}, {"particles/final/status", "1"},
+        {"particles/final/step_failure", "1"},
         {"trajectories/t", "s"}, {"trajectories/x", "m"}, {"trajectories/u", "m/s"},
         {"trajectories/ppar", "kg m/s"}, {"trajectories/count", "1"},
         {"invariants/bounce/id", "1"}, {"invariants/drift/id", "1"}, {"invariants/mu/id", "1"},

@@ -36,6 +36,7 @@ size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
         COL_(hy_t_fo, 1);
     }
     COL_(status, 1);
+    COL_(step_failure, 1);
     COL_(steps, 1);
     COL_(cpu, 1);
     COL_(L0, 1);

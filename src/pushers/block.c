@@ -20,6 +20,7 @@ int gcp_block_alloc(struct gcp_block *b, size_t n)
     for (size_t k = 0; k < sizeof d / sizeof d[0]; k++) fail |= !(*d[k] = calloc(m, sizeof(double)));
     fail |= !(b->status = calloc(m, sizeof(int32_t)));
     fail |= !(b->fstatus = calloc(m, sizeof(int32_t)));
+    fail |= !(b->step_failure = calloc(m, sizeof(int32_t)));
     fail |= !(b->steps = calloc(m, sizeof(int64_t)));
     fail |= !(b->index = calloc(m, sizeof(size_t)));
     if (fail) {
@@ -38,6 +39,7 @@ void gcp_block_free(struct gcp_block *b)
     for (size_t k = 0; k < sizeof d / sizeof d[0]; k++) free(d[k]);
     free(b->status);
     free(b->fstatus);
+    free(b->step_failure);
     free(b->steps);
     free(b->index);
     memset(b, 0, sizeof *b);
@@ -57,6 +59,7 @@ void gcp_block_swap_lanes(struct gcp_block *b, size_t i, size_t j)
     SWAP_(double, b->mu, i, j);
     SWAP_(double, b->t, i, j);
     SWAP_(int32_t, b->status, i, j);
+    SWAP_(int32_t, b->step_failure, i, j);
     SWAP_(int64_t, b->steps, i, j);
     SWAP_(size_t, b->index, i, j);
 }
@@ -116,6 +119,7 @@ size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t st
     while (i < n) {
         if (b->status[i] != GCP_ALIVE) {
             b->t[i] = t_stop;
+            gcp_lane_failure_default(b, i);
             b->steps[i] += steps_done;
             gcp_block_swap_lanes(b, i, n - 1);
             n--;

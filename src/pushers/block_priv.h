@@ -24,6 +24,27 @@ int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field
  * time t_stop and adding steps_done to their steps; returns the live count. */
 size_t gcp_block_retire(struct gcp_block *b, size_t n, double t_stop, int64_t steps_done);
 
+/* Issue 11: the reason a stepper gives for a lane it fails.  Sets lane i
+ * of b to GCP_STEP_FAILED with `reason` (enum gcp_step_failure) and returns
+ * GCP_STEP_FAILED, so a per-lane step can end with
+ *   return gcp_lane_fail(b, i, GCP_FAIL_NO_CONVERGENCE);
+ * (its caller writes the returned status; the reason rides with the lane
+ * through retirement to the output and the log). */
+static inline int gcp_lane_fail(struct gcp_block *b, size_t i, int reason)
+{
+    b->step_failure[i] = reason;
+    return GCP_STEP_FAILED;
+}
+
+/* At retirement: a STEP_FAILED lane with no reason gets UNSPECIFIED, a
+ * lane that stopped otherwise keeps NONE (a reason of a step that later
+ * succeeded, e.g. after a restart, is dropped). */
+static inline void gcp_lane_failure_default(struct gcp_block *b, size_t i)
+{
+    if (b->status[i] != GCP_STEP_FAILED) b->step_failure[i] = GCP_FAIL_NONE;
+    else if (b->step_failure[i] == GCP_FAIL_NONE) b->step_failure[i] = GCP_FAIL_UNSPECIFIED;
+}
+
 /* Ends a push of k steps: the n live lanes get t = t_end and k more steps. */
 void gcp_block_finish(struct gcp_block *b, size_t n, double t_end, int64_t k);
 

@@ -21,7 +21,6 @@
  * non-finite value in a trial stage stops the lane with that status and
  * the state of its last accepted step; an error control that cannot be met
  * above round-off is STEP_FAILED. */
-#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,6 +32,7 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "block_priv.h"
+#include "evolve_priv.h"
 
 struct fo_sys {
     const struct gcp_field *f;
@@ -71,17 +71,15 @@ static int fo_rhs(double t, const double y[], double dydt[], void *params)
     return GSL_SUCCESS;
 }
 
-struct fo_ws {
-    gsl_odeiv2_step *step;
-    gsl_odeiv2_control *ctrl;
-    gsl_odeiv2_evolve *ev;
-};
-
-/* Integrates lane i from b->t[i] to t1; returns its status (0: reached t1). */
-static int32_t fo_lane(struct gcp_block *b, size_t i, const struct gcp_field *f, struct fo_ws *w,
-                       double *h, double t1, double t_span)
+/* Integrates lane i from b->t[i] to t1 with the trial step *h it keeps
+ * between calls; returns its status (0: reached t1). */
+static int32_t fo_lane(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
+                       double t1, void *lane)
 {
-    struct fo_sys c = {f, b->q / b->m, 1.0, 1.0, GCP_NEED_B | (f->has_E ? GCP_NEED_E : 0u), 0};
+    (void)ctx;
+    const struct gcp_field *f = ev->f;
+    double *h = lane;
+    struct fo_sys c = {f, b->q / b->m, 1.0, 1.0, GCP_NEED_B | (ev->has_E ? GCP_NEED_E : 0u), 0};
     const double x0[3] = {b->x[i], b->y[i], b->z[i]}, u0[3] = {b->ux[i], b->uy[i], b->uz[i]};
     struct gcp_field_sample smp = {.need = GCP_NEED_B};
     gcp_field_eval(f, b->t[i], x0, &smp);
@@ -95,23 +93,15 @@ static int32_t fo_lane(struct gcp_block *b, size_t i, const struct gcp_field *f,
     double y[6];
     for (int d = 0; d < 3; d++) y[d] = x0[d] / c.Ls, y[3 + d] = u0[d] / c.Us;
     double t = b->t[i];
-    gsl_odeiv2_step_reset(w->step);
-    gsl_odeiv2_evolve_reset(w->ev);
-    const double hmin_rel = 1e3 * DBL_EPSILON;
+    gsl_odeiv2_step_reset(ev->gsl_step);
+    gsl_odeiv2_evolve_reset(ev->gsl_evolve);
     int32_t status = 0;
     int64_t accepted = 0;
     while (t < t1) {
-        double yg[6];
-        memcpy(yg, y, sizeof y);
-        const double tg = t;
-        c.status = 0;
-        const int rc = gsl_odeiv2_evolve_apply(w->ev, w->ctrl, w->step, &sys, &t, t1, h, y);
-        const double taken = t - tg;
-        if (rc != GSL_SUCCESS || !(taken > 0.0) ||
-            (t < t1 && taken < hmin_rel * (fabs(t) + t_span))) {
-            status = rc == GSL_EBADFUNC && c.status ? c.status : GCP_STEP_FAILED;
-            memcpy(y, yg, sizeof y);
-            t = tg;
+        int32_t why = GCP_FAIL_NONE;
+        status = gcp_evolve_adaptive_step(ev, &sys, &t, t1, h, y, &c.status, &why);
+        if (status) {
+            if (status == GCP_STEP_FAILED) gcp_lane_fail(b, i, why);
             break;
         }
         accepted++;
@@ -125,55 +115,29 @@ static int32_t fo_lane(struct gcp_block *b, size_t i, const struct gcp_field *f,
     return status;
 }
 
+static int fo_lane_init(const struct gcp_evolve *ev, void *ctx, const struct gcp_block *b,
+                        size_t i, void *lane)
+{
+    (void)ctx, (void)b, (void)i;
+    *(double *)lane = ev->o->dt; /* the first trial step */
+    return 0;
+}
+
 static size_t fo_rk8pd_advance(struct gcp_block *b, const struct gcp_field *f,
                                const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                                const struct gcp_sampler *s)
 {
     (void)p;
-    size_t n = b->n_active;
-    if (n == 0) return 0;
-    const int ok = isfinite(o->dt) && o->dt > 0.0 && o->nsteps >= 0 && isfinite(o->t0);
-    const double tol = o->tolerance > 0.0 ? o->tolerance : GCP_FO_RK8PD_TOL;
-    struct fo_ws w = {gsl_odeiv2_step_alloc(gsl_odeiv2_step_rk8pd, 6),
-                      gsl_odeiv2_control_y_new(tol, tol), gsl_odeiv2_evolve_alloc(6)};
-    double *hs = malloc(b->n * sizeof(double));
-    if (!ok || !w.step || !w.ctrl || !w.ev || !hs) {
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
-        n = gcp_block_retire(b, n, o->t0, 0);
-    }
-    gsl_error_handler_t *old = gsl_set_error_handler_off();
-    const int64_t every = s && s->fn && s->every > 0 ? s->every : 0;
-    const int64_t chunk = every ? every : (o->nsteps > 0 ? o->nsteps : 1);
-    const double t_end = o->t0 + (double)o->nsteps * o->dt;
-    for (size_t i = 0; i < n; i++) {
-        hs[i] = o->dt;
-        b->t[i] = o->t0;
-    }
-    for (int64_t k = 0; k < o->nsteps && n > 0; k += chunk) {
-        const int64_t kn = k + chunk < o->nsteps ? k + chunk : o->nsteps;
-        const double t1 = kn == o->nsteps ? t_end : o->t0 + (double)kn * o->dt;
-        for (size_t i = 0; i < n; i++) b->status[i] = fo_lane(b, i, f, &w, &hs[i], t1, t_end - o->t0);
-        size_t i = 0;
-        while (i < n) {
-            if (b->status[i] != GCP_ALIVE) {
-                gcp_block_swap_lanes(b, i, n - 1);
-                const double th = hs[i];
-                hs[i] = hs[n - 1], hs[n - 1] = th;
-                n--;
-            } else {
-                i++;
-            }
-        }
-        b->n_active = n;
-        if (every && n > 0) s->fn(b, t1, s->ctx);
-    }
-    gsl_set_error_handler(old);
-    free(hs);
-    if (w.ev) gsl_odeiv2_evolve_free(w.ev);
-    if (w.ctrl) gsl_odeiv2_control_free(w.ctrl);
-    if (w.step) gsl_odeiv2_step_free(w.step);
-    b->n_active = n;
-    return n;
+    const struct gcp_adaptive_stepper st = {
+        .gc = 0,
+        .lane_size = sizeof(double),
+        .type = gsl_odeiv2_step_rk8pd,
+        .dim = 6,
+        .tol_default = GCP_FO_RK8PD_TOL,
+        .init = fo_lane_init,
+        .run = fo_lane,
+    };
+    return gcp_evolve_adaptive(b, f, o, s, &st, NULL);
 }
 
 const struct gcp_pusher_type gcp_pusher_fo_rk8pd = {

@@ -16,6 +16,7 @@
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
 #include "block_priv.h"
+#include "evolve_priv.h"
 
 static const struct gcp_pusher_type *const all_pushers[] = {
     &gcp_pusher_boris, &gcp_pusher_boris_zu, &gcp_pusher_vay, &gcp_pusher_higuera_cary,
@@ -77,50 +78,62 @@ size_t gcp_block_start(struct gcp_block *b, const struct gcp_field *f, double t0
     return n;
 }
 
+/* The full-orbit stepper of the evolve layer: the pusher and the choice
+ * of kick (with E, or the pure-magnetic kick_B) fixed for the push. */
+struct fo_ctx {
+    const struct gcp_pusher_type *p;
+    double *Ex, *Ey, *Ez;          /* the block's E, or NULL without an electric field */
+    gcp_kick_B_batch_fn kick_B;    /* set when there is no E and the pusher has one */
+};
+
+/* u does not change between a step's second half drift and the next
+ * step's first, so (dt/2)/gamma is computed once per step (bit-identical to
+ * recomputing it); when lanes are renumbered it is recomputed. */
+static void fo_relanes(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n)
+{
+    (void)vctx;
+    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, 0.5 * ev->o->dt);
+}
+
+static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
+                       double t, double dt)
+{
+    const struct fo_ctx *c = vctx;
+    const struct gcp_field *f = ev->f;
+    const double h = 0.5 * dt;
+    drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
+    memset(b->fstatus, 0, n * sizeof(int32_t));
+    f->type->eval_block(f, t + h, n, b->x, b->y, b->z, b->Bx, b->By, b->Bz, c->Ex, c->Ey, c->Ez,
+                        b->fstatus);
+    if (c->kick_B) c->kick_B(n, b->ux, b->uy, b->uz, b->Bx, b->By, b->Bz, b->q, b->m, dt);
+    else
+        c->p->kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
+    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
+    drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
+    return 0;
+}
+
+static const struct gcp_stepper fo_stepper = {
+    .gc = 0,
+    .relanes = fo_relanes,
+    .step = fo_step,
+};
+
 size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
                             const struct gcp_pusher_type *p, double t0, double dt,
                             int64_t nsteps, const struct gcp_sampler *sampler)
 {
-    size_t n = b->n_active;
-    const double h = 0.5 * dt;
     /* Chosen once: with no electric field the gathered E stays zero, or the
      * pusher's pure-magnetic kick skips the E terms altogether. */
-    double *Ex = f->has_E ? b->Ex : NULL;
-    double *Ey = f->has_E ? b->Ey : NULL;
-    double *Ez = f->has_E ? b->Ez : NULL;
-    const gcp_kick_B_batch_fn kick_B = f->has_E ? NULL : p->kick_B;
-    if (!f->has_E && !kick_B) {
+    struct fo_ctx c = {p, f->has_E ? b->Ex : NULL, f->has_E ? b->Ey : NULL,
+                       f->has_E ? b->Ez : NULL, f->has_E ? NULL : p->kick_B};
+    if (!f->has_E && !c.kick_B) {
         memset(b->Ex, 0, b->n * sizeof(double));
         memset(b->Ey, 0, b->n * sizeof(double));
         memset(b->Ez, 0, b->n * sizeof(double));
     }
-    const int64_t every = sampler && sampler->fn ? sampler->every : 0;
-    const gcp_kick_batch_fn kick = p->kick;
-    const struct gcp_field_type *ft = f->type;
-    /* u does not change between a step's second half drift and the next
-     * step's first, so (dt/2)/gamma is computed once per step (bit-identical
-     * to recomputing it); after lanes are retired it is recomputed. */
-    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
-    int64_t k = 0;
-    for (; k < nsteps && n > 0; k++) {
-        const double t = t0 + (double)k * dt;
-        drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
-        memset(b->fstatus, 0, n * sizeof(int32_t));
-        ft->eval_block(f, t + h, n, b->x, b->y, b->z, b->Bx, b->By, b->Bz, Ex, Ey, Ez,
-                       b->fstatus);
-        if (kick_B) kick_B(n, b->ux, b->uy, b->uz, b->Bx, b->By, b->Bz, b->q, b->m, dt);
-        else kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
-        half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
-        drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
-        if (gcp_block_classify(b, n, f, 0)) {
-            n = gcp_block_retire(b, n, t + dt, k + 1);
-            half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
-        }
-        b->n_active = n;
-        if (every && (k + 1) % every == 0) sampler->fn(b, t + dt, sampler->ctx);
-    }
-    gcp_block_finish(b, n, t0 + (double)k * dt, k);
-    return n;
+    const struct gcp_push_opts o = {.t0 = t0, .dt = dt, .nsteps = nsteps};
+    return gcp_evolve_inline(b, f, &o, sampler, &fo_stepper, &c);
 }
 
 size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,

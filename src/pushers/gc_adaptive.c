@@ -34,7 +34,6 @@
  *     above round-off (h < 1e3 DBL_EPSILON (|t| + t_end - t0): GSL would
  *     then crawl on at 1 ulp per step): GCP_STEP_FAILED.
  */
-#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,6 +44,7 @@
 #include "gcpush/gc.h"
 #include "gcpush/particles.h"
 #include "block_priv.h"
+#include "evolve_priv.h"
 #include "gc_priv.h"
 
 struct lane_sys {
@@ -68,12 +68,6 @@ static int lane_rhs(double t, const double y[], double dydt[], void *params)
     return GSL_SUCCESS;
 }
 
-struct adaptive_ws {
-    gsl_odeiv2_step *step;
-    gsl_odeiv2_control *ctrl;
-    gsl_odeiv2_evolve *ev;
-};
-
 /* The integration state of one lane, kept between sampling times: the
  * step sequence belongs to the lane alone and follows the tolerance only
  * (issue 13: it used to stop at every sampling time, so the output cadence
@@ -84,6 +78,7 @@ struct lane_state {
     double y[4], ya[4];
     double t, ta, h, Ls, Ps;
     int32_t stop; /* status of a stop at t, reported at the next sampling time after it */
+    int32_t why;  /* enum gcp_step_failure of a STEP_FAILED stop */
 };
 
 /* Starts lane i at b->t[i] with first trial step h. */
@@ -104,6 +99,7 @@ static void lane_init(struct lane_state *L, const struct gcp_block *b, size_t i,
     L->t = L->ta = b->t[i];
     L->h = h;
     L->stop = 0;
+    L->why = GCP_FAIL_NONE;
 }
 
 static void lane_put(struct gcp_block *b, size_t i, const struct lane_state *L, const double y[4])
@@ -120,31 +116,25 @@ static void lane_put(struct gcp_block *b, size_t i, const struct lane_state *L, 
  * accepted step, so within the tolerance; it does not touch the lane's
  * own sequence).  Returns the lane's status at t1: 0 when alive there, a
  * stop found before t1 (with the stop's state and time in the block). */
-static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f,
-                        const struct gcp_push_opts *o, struct adaptive_ws *w,
-                        struct lane_state *L, double t1, double t_end)
+static int32_t lane_run(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
+                        double t1, void *lane)
 {
+    (void)ctx;
+    struct lane_state *L = lane;
+    const struct gcp_field *f = ev->f;
+    const struct gcp_push_opts *o = ev->o;
     struct lane_sys c = {f, b->q, b->m, b->mu[i], L->Ls, L->Ps, 0};
     gsl_odeiv2_system sys = {lane_rhs, NULL, 4, &c};
-    const double hmin_rel = 1e3 * DBL_EPSILON, t_span = t_end - o->t0;
     int64_t accepted = 0;
-    gsl_odeiv2_step_reset(w->step);
-    gsl_odeiv2_evolve_reset(w->ev);
+    gsl_odeiv2_step_reset(ev->gsl_step);
+    gsl_odeiv2_evolve_reset(ev->gsl_evolve);
     while (!L->stop && L->t < t1) {
+        const double tg = L->t;
         double yg[4];
         memcpy(yg, L->y, sizeof yg);
-        const double tg = L->t;
-        c.status = 0;
-        const int rc = gsl_odeiv2_evolve_apply(w->ev, w->ctrl, w->step, &sys, &L->t, t_end,
-                                               &L->h, L->y);
-        const double taken = L->t - tg;
-        if (rc != GSL_SUCCESS || !(taken > 0.0) ||
-            (L->t < t_end && taken < hmin_rel * (fabs(L->t) + t_span))) {
-            L->stop = rc == GSL_EBADFUNC && c.status ? c.status : GCP_STEP_FAILED;
-            memcpy(L->y, yg, sizeof yg);
-            L->t = tg;
-            break;
-        }
+        L->stop = gcp_evolve_adaptive_step(ev, &sys, &L->t, ev->t_end, &L->h, L->y, &c.status,
+                                           &L->why);
+        if (L->stop) break;
         accepted++;
         memcpy(L->ya, yg, sizeof yg);
         L->ta = tg;
@@ -157,6 +147,7 @@ static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f
         }
     }
     b->steps[i] += accepted;
+    if (L->stop == GCP_STEP_FAILED) b->step_failure[i] = L->why;
     if (L->stop && L->t <= t1) { /* stopped before (or at) t1: that state */
         lane_put(b, i, L, L->y);
         b->t[i] = L->t;
@@ -171,12 +162,13 @@ static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f
     double ys[4], yerr[4];
     memcpy(ys, L->ya, sizeof ys);
     c.status = 0;
-    gsl_odeiv2_step_reset(w->step);
-    if (gsl_odeiv2_step_apply(w->step, L->ta, t1 - L->ta, ys, yerr, NULL, NULL, &sys) !=
+    gsl_odeiv2_step_reset(ev->gsl_step);
+    if (gsl_odeiv2_step_apply(ev->gsl_step, L->ta, t1 - L->ta, ys, yerr, NULL, NULL, &sys) !=
         GSL_SUCCESS) {
         /* the stages were evaluated inside an accepted step: cannot fail
          * but through the field; report it as the lane's stop */
         L->stop = c.status ? c.status : GCP_STEP_FAILED;
+        if (L->stop == GCP_STEP_FAILED) b->step_failure[i] = GCP_FAIL_SOLVER_ERROR;
         lane_put(b, i, L, L->ya);
         b->t[i] = L->ta;
         return L->stop;
@@ -185,54 +177,28 @@ static int32_t lane_run(struct gcp_block *b, size_t i, const struct gcp_field *f
     return 0;
 }
 
+static int lane_start(const struct gcp_evolve *ev, void *ctx, const struct gcp_block *b, size_t i,
+                      void *lane)
+{
+    (void)ctx;
+    lane_init(lane, b, i, ev->f, ev->o->dt);
+    return 0;
+}
+
 static size_t adaptive_advance(struct gcp_block *b, const struct gcp_field *f,
                                const struct gcp_push_opts *o, const struct gcp_sampler *s,
                                const gsl_odeiv2_step_type *T, double tol_default)
 {
-    size_t n = gcp_gc_block_begin(b, f, o);
-    if (n == 0) return 0;
-    const double tol = o->tolerance > 0.0 ? o->tolerance : tol_default;
-    struct adaptive_ws w = {gsl_odeiv2_step_alloc(T, 4), gsl_odeiv2_control_y_new(tol, tol),
-                            gsl_odeiv2_evolve_alloc(4)};
-    struct lane_state *ls = malloc(b->n * sizeof *ls);
-    if (!w.step || !w.ctrl || !w.ev || !ls) {
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
-        n = gcp_block_retire(b, n, o->t0, 0);
-    }
-    gsl_error_handler_t *old = gsl_set_error_handler_off();
-    const int64_t every = s && s->fn && s->every > 0 ? s->every : 0;
-    const int64_t chunk = every ? every : (o->nsteps > 0 ? o->nsteps : 1);
-    const double t_end = o->t0 + (double)o->nsteps * o->dt;
-    for (size_t i = 0; i < n; i++) {
-        b->t[i] = o->t0;
-        lane_init(&ls[i], b, i, f, o->dt);
-    }
-    for (int64_t k = 0; k < o->nsteps && n > 0; k += chunk) {
-        const int64_t kn = k + chunk < o->nsteps ? k + chunk : o->nsteps;
-        const double t1 = kn == o->nsteps ? t_end : o->t0 + (double)kn * o->dt;
-        for (size_t i = 0; i < n; i++) b->status[i] = lane_run(b, i, f, o, &w, &ls[i], t1, t_end);
-        /* retire stopped lanes, each with its own t and steps (already set) */
-        size_t i = 0;
-        while (i < n) {
-            if (b->status[i] != GCP_ALIVE) {
-                gcp_block_swap_lanes(b, i, n - 1);
-                const struct lane_state tl = ls[i];
-                ls[i] = ls[n - 1], ls[n - 1] = tl;
-                n--;
-            } else {
-                i++;
-            }
-        }
-        b->n_active = n;
-        if (every && n > 0) s->fn(b, t1, s->ctx);
-    }
-    gsl_set_error_handler(old);
-    free(ls);
-    if (w.ev) gsl_odeiv2_evolve_free(w.ev);
-    if (w.ctrl) gsl_odeiv2_control_free(w.ctrl);
-    if (w.step) gsl_odeiv2_step_free(w.step);
-    b->n_active = n;
-    return n;
+    const struct gcp_adaptive_stepper st = {
+        .gc = 1,
+        .lane_size = sizeof(struct lane_state),
+        .type = T,
+        .dim = 4,
+        .tol_default = tol_default,
+        .init = lane_start,
+        .run = lane_run,
+    };
+    return gcp_evolve_adaptive(b, f, o, s, &st, NULL);
 }
 
 static size_t gc_rk45_advance(struct gcp_block *b, const struct gcp_field *f,

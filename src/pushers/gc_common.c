@@ -79,6 +79,7 @@ size_t gcp_gc_block_begin(struct gcp_block *b, const struct gcp_field *f, const 
         b->fstatus[i] = ok ? gcp_gc_eval(f, o->t0, b->q, b->m, X, b->ppar[i], b->mu[i],
                                      o->adiabaticity_max, dX, &dp)
                            : GCP_STEP_FAILED;
+        if (!ok) b->step_failure[i] = GCP_FAIL_BAD_OPTIONS;
     }
     if (gcp_block_classify(b, n, f, 1)) n = gcp_block_retire(b, n, o->t0, 0);
     b->n_active = n;

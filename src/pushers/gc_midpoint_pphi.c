@@ -305,7 +305,15 @@ static int vi_rates(const struct vi_ctx *C, double t, const double c[3], double 
 /* One step of size h by Newton; on success updates the lane.  Returns 0,
  * -1 (Newton failure), or GCP_NONADIABATIC; *fst gets the field status at
  * the new point. */
-static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane *L, int *fst)
+/* Records why Newton failed (enum gcp_step_failure) and returns -1. */
+static int vi_fail(int *why, int reason)
+{
+    *why = reason;
+    return -1;
+}
+
+static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane *L, int *fst,
+                     int *why)
 {
     double u[4];
     if (L->have_prev >= 2 && L->hprev == h && L->hprev2 == h) {
@@ -318,9 +326,11 @@ static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane 
         u[3] = L->p + r * L->dprev[3];
     } else {
         double k1[4], k2[4], cm[3];
-        if (vi_rates(C, t, L->c, L->p, k1) == GCP_NONFINITE) return -1;
+        if (vi_rates(C, t, L->c, L->p, k1) == GCP_NONFINITE)
+            return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         for (int d = 0; d < 3; d++) cm[d] = L->c[d] + 0.5 * h * k1[d];
-        if (vi_rates(C, t + 0.5 * h, cm, L->p + 0.5 * h * k1[3], k2) == GCP_NONFINITE) return -1;
+        if (vi_rates(C, t + 0.5 * h, cm, L->p + 0.5 * h * k1[3], k2) == GCP_NONFINITE)
+            return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         for (int d = 0; d < 3; d++) u[d] = L->c[d] + h * k2[d];
         u[3] = L->p + h * k2[3];
     }
@@ -331,25 +341,25 @@ static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane 
     int refreshed = 0;
     for (int it = 0; it < VI_MAXIT; it++) {
         const int st = vi_residual(C, t, h, L, u, F, th1, &mid);
-        if (st == GCP_NONFINITE) return -1;
+        if (st == GCP_NONFINITE) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         if (!L->have_J) {
-            if (vi_jacobian(C, t, h, L, u, F)) return -1;
+            if (vi_jacobian(C, t, h, L, u, F)) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
             refreshed = 1;
         }
         double d[4] = {-F[0], -F[1], -F[2], -F[3]};
         lus4(L->J, L->piv, d);
         double nd = 0.0;
         for (int k = 0; k < 4; k++) nd = fmax(nd, fabs(d[k]) / sc[k]);
-        if (!isfinite(nd)) return -1;
+        if (!isfinite(nd)) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         if (it > 0 && nd > 0.02 * nprev && nd > VI_TOL && !refreshed) {
             /* slow contraction with an old Jacobian: refresh it here */
-            if (vi_jacobian(C, t, h, L, u, F)) return -1;
+            if (vi_jacobian(C, t, h, L, u, F)) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
             refreshed = 1;
             for (int k = 0; k < 4; k++) d[k] = -F[k];
             lus4(L->J, L->piv, d);
             nd = 0.0;
             for (int k = 0; k < 4; k++) nd = fmax(nd, fabs(d[k]) / sc[k]);
-            if (!isfinite(nd)) return -1;
+            if (!isfinite(nd)) return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
         }
         const int stalled = it > 0 && nd <= VI_FLOOR && nd > 0.5 * nprev;
         if (nd <= VI_TOL || stalled) {
@@ -360,7 +370,8 @@ static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane 
             for (int k = 0; k < 4; k++) u[k] += d[k];
             struct vi_pt p1;
             vi_point(C, t + h, u, u[3], 0, &p1);
-            if (!isfinite(p1.theta[0] + p1.theta[1] + p1.theta[2])) return -1;
+            if (!isfinite(p1.theta[0] + p1.theta[1] + p1.theta[2]))
+                return vi_fail(why, GCP_FAIL_NONFINITE_STAGE);
             memcpy(L->dprev2, L->dprev, sizeof L->dprev);
             L->hprev2 = L->hprev;
             for (int k = 0; k < 3; k++) L->dprev[k] = u[k] - L->c[k];
@@ -383,19 +394,20 @@ static int vi_newton(const struct vi_ctx *C, double t, double h, struct vi_lane 
         for (int k = 0; k < 4; k++) u[k] += d[k];
         nprev = nd;
     }
-    return -1;
+    return vi_fail(why, GCP_FAIL_NO_CONVERGENCE);
 }
 
 /* A step of size h: Newton, retried once from the first-step predictor
  * with a fresh Jacobian (the extrapolated predictor or the kept Jacobian
  * may be poor after a sharp turn); the step size never changes. */
-static int vi_step(const struct vi_ctx *C, double t, double h, struct vi_lane *L, int *fst)
+static int vi_step(const struct vi_ctx *C, double t, double h, struct vi_lane *L, int *fst,
+                   int *why)
 {
-    const int r = vi_newton(C, t, h, L, fst);
+    const int r = vi_newton(C, t, h, L, fst, why);
     if (r >= 0) return r;
     L->have_J = 0;
     L->have_prev = 0;
-    const int r2 = vi_newton(C, t, h, L, fst);
+    const int r2 = vi_newton(C, t, h, L, fst, why); /* the retry's reason is the lane's */
     return r2 >= 0 ? r2 : GCP_STEP_FAILED;
 }
 
@@ -458,11 +470,11 @@ static int vi_lane_step(const void *vctx, struct gcp_block *b, size_t i, double 
     Ci.m = b->m, Ci.mu = b->mu[i];
     struct vi_lane *L = vlane;
     const struct vi_lane save = *L;
-    int fst = 0;
-    const int r = vi_step(&Ci, t, h, L, &fst);
+    int fst = 0, why = GCP_FAIL_UNSPECIFIED;
+    const int r = vi_step(&Ci, t, h, L, &fst, &why);
     if (r) {
         *L = save; /* state of the start of the step */
-        return r;
+        return r == GCP_STEP_FAILED ? gcp_lane_fail(b, i, why) : r;
     }
     lane_to_block(&Ci, L, b, i);
     b->fstatus[i] = fst;
@@ -491,7 +503,7 @@ static size_t gc_vi_advance(struct gcp_block *b, const struct gcp_field *f,
     (void)p;
     if (vi_applies(f, NULL, 0)) {
         const size_t n = b->n_active;
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        for (size_t i = 0; i < n; i++) b->status[i] = gcp_lane_fail(b, i, GCP_FAIL_UNSUPPORTED);
         b->n_active = gcp_block_retire(b, n, o->t0, 0);
         return b->n_active;
     }

@@ -34,10 +34,11 @@ int gcp_gc_eval(const struct gcp_field *f, double t, double q, double m, const d
 size_t gcp_gc_block_begin(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o);
 
 /* Per-lane one-step methods (implicit schemes that keep a solver state per
- * lane: gc-gl2, gc-gl4, gc-midpoint-pphi) share one block loop,
- * gcp_gc_lanes_advance (gc_lanes.c): gcp_gc_block_begin, then per step the
- * validity check at the start of the step (gcp_gc_eval with
- * opts->adiabaticity_max; skipped at the first step, which begin checked),
+ * lane: gc-gl2, gc-gl4, gc-midpoint-pphi) run on the evolve layer
+ * (evolve_priv.h) through gcp_gc_lanes_advance (gc_lanes.c):
+ * gcp_gc_block_begin, then per step the validity check at the start of
+ * the step (gcp_gc_eval with opts->adiabaticity_max; skipped at the first
+ * step, which begin checked),
  * ops->step on every live lane, retirement with the lane states carried
  * along, the sampler, and gcp_block_finish.
  *   init: sets up *lane from block lane i at time t; 0 or a status.
@@ -45,7 +46,9 @@ size_t gcp_gc_block_begin(struct gcp_block *b, const struct gcp_field *f, const 
  *         into block lane i, the field status there into b->fstatus[i], and
  *         returns 0; otherwise leaves the block lane as it was (the state of
  *         the start of the step) and returns the lane's status
- *         (GCP_STEP_FAILED, GCP_NONADIABATIC, ...). */
+ *         (GCP_NONADIABATIC, ..., or GCP_STEP_FAILED, best with its reason:
+ *         `return gcp_lane_fail(b, i, GCP_FAIL_NO_CONVERGENCE);`, block_priv.h;
+ *         a STEP_FAILED lane without one ends UNSPECIFIED). */
 struct gcp_gc_lane_ops {
     size_t lane_size; /* [bytes] of one lane's solver state */
     int (*init)(const void *ctx, const struct gcp_block *b, size_t i, double t, void *lane);

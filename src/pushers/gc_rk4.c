@@ -28,6 +28,7 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "block_priv.h"
+#include "evolve_priv.h"
 #include "gc_priv.h"
 
 /* Lanes per chunk: ~30 arrays of CHUNK doubles of stage scratch (24 kB). */
@@ -254,47 +255,52 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
     }
 }
 
+/* gc-rk4 on the evolve layer: stage 1 is the start-of-step check (k1 and
+ * the validity verdict of every lane; the layer retires stopped lanes and
+ * calls it again on the rest), stages 2 to 4 and the update are the step.
+ * Block scratch: k1 of every lane (4 N doubles) and one chunk. */
+static size_t rk4_chunk_offset(size_t N) { return (4 * N * sizeof(double) + 63) / 64 * 64; }
+
+static size_t rk4_work_size(size_t N) { return rk4_chunk_offset(N) + sizeof(struct rk4_chunk); }
+
+/* The chunk after k1, on a cache line of its own (work is 64-byte aligned). */
+static struct rk4_chunk *rk4_chunk_of(const struct gcp_evolve *ev, const struct gcp_block *b)
+{
+    return (struct rk4_chunk *)((unsigned char *)ev->work + rk4_chunk_offset(b->n));
+}
+
+static int32_t rk4_start(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                         double t, int first)
+{
+    (void)first; /* k1 is needed at every step */
+    return stage1(b, n, rk4_chunk_of(ev, b), ev->work, ev->f, t, ev->need,
+                  ev->o->adiabaticity_max, ctx);
+}
+
+static int32_t rk4_step(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                        double t, double h)
+{
+    struct rk4_chunk *c = rk4_chunk_of(ev, b);
+    for (size_t i0 = 0; i0 < n; i0 += CHUNK)
+        stages234(b, i0, n - i0 < CHUNK ? n - i0 : CHUNK, c, ev->work, ev->f, t, h, ev->need, ctx);
+    return 0;
+}
+
+static const struct gcp_stepper rk4_stepper = {
+    .gc = 1,
+    .work_size = rk4_work_size,
+    .start = rk4_start,
+    .step = rk4_step,
+};
+
 static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
                              const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                              const struct gcp_sampler *s)
 {
     (void)p;
-    size_t n = gcp_gc_block_begin(b, f, o);
-    if (n == 0) return 0;
-    const size_t N = b->n;
-    double *k1 = malloc(4 * N * sizeof(double));
-    struct rk4_chunk *c = malloc(sizeof *c);
-    if (!k1 || !c) {
-        free(k1);
-        free(c);
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
-        b->n_active = gcp_block_retire(b, n, o->t0, 0);
-        return b->n_active;
-    }
-    const double h = o->dt, amax = o->adiabaticity_max;
-    const unsigned need = GCP_NEED_B | GCP_NEED_GRADB | (f->has_E ? GCP_NEED_E : 0u);
-    const int64_t every = s && s->fn ? s->every : 0;
     const double mc = b->m * GCP_C_LIGHT;
-    const struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT), 1.0 / b->m};
-    int64_t k = 0;
-    for (; k < o->nsteps && n > 0; k++) {
-        const double t = o->t0 + (double)k * h;
-        /* stage 1, with the validity check; stopped lanes leave first */
-        while (stage1(b, n, c, k1, f, t, need, amax, &kc)) {
-            if (gcp_block_classify(b, n, f, 1)) n = gcp_block_retire(b, n, t, k);
-            b->n_active = n;
-        }
-        if (n == 0) break;
-        for (size_t i0 = 0; i0 < n; i0 += CHUNK)
-            stages234(b, i0, n - i0 < CHUNK ? n - i0 : CHUNK, c, k1, f, t, h, need, &kc);
-        if (gcp_block_classify(b, n, f, 1)) n = gcp_block_retire(b, n, t + h, k + 1);
-        b->n_active = n;
-        if (every && (k + 1) % every == 0) s->fn(b, t + h, s->ctx);
-    }
-    gcp_block_finish(b, n, o->t0 + (double)k * h, k);
-    free(k1);
-    free(c);
-    return n;
+    struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT), 1.0 / b->m};
+    return gcp_evolve_inline(b, f, o, s, &rk4_stepper, &kc);
 }
 
 const struct gcp_pusher_type gcp_pusher_gc_rk4 = {

@@ -149,6 +149,7 @@ void gcp_engine_load(struct gcp_engine *e, struct gcp_results *res, int64_t firs
         }
         b->index[i] = (size_t)i;
         b->status[i] = 0;
+        b->step_failure[i] = 0;
         b->steps[i] = 0;
         b->t[i] = t0;
         /* loss-cone classification at the start (dipole; NaN elsewhere) */
@@ -252,6 +253,11 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
         const int64_t row = row0 + (int64_t)b->index[i];
         res->t[row] = b->t[i];
         res->status[row] = b->status[i];
+        /* a STEP_FAILED particle always has a reason (issue 11):
+         * UNSPECIFIED where its stepper gave none */
+        res->step_failure[row] = b->status[i] != GCP_STEP_FAILED ? GCP_FAIL_NONE
+                                 : b->step_failure[i]          ? b->step_failure[i]
+                                                               : GCP_FAIL_UNSPECIFIED;
         res->steps[row] = b->steps[i];
         if (hy) continue; /* x, u, X, ppar, mu: gcp_hybrid_store */
         res->x[3 * row] = b->x[i], res->x[3 * row + 1] = b->y[i], res->x[3 * row + 2] = b->z[i];

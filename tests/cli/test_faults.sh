@@ -7,7 +7,7 @@ set -u
 here=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$TMP"
 
-# 128 protons in the mirror (2 chunks of 64), no trajectory: rows of 160 bytes
+# 128 protons in the mirror (2 chunks of 64), no trajectory: rows of 164 bytes
 cat > ck.run <<'RUN'
 [scene]
 name     = ck
@@ -38,10 +38,10 @@ ckpt() {
 import os, struct, sys
 out, rows, first, nw = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
 text = open(os.environ.get("RUN", "ck.run"), "rb").read()
-b = b"GCPCKPT2" + struct.pack("=qqq", 0, rows, len(text)) + text
+b = b"GCPCKPT3" + struct.pack("=qqq", 0, rows, len(text)) + text
 b += struct.pack("=q", 6) + b"ck.run" + struct.pack("=d", 0.0)
 cols = [("q", 1), ("i", 1), ("d", 3), ("d", 3), ("d", 1), ("d", 3), ("d", 3),
-        ("i", 1), ("q", 1), ("d", 1), ("d", 1), ("d", 1), ("d", 1)]
+        ("i", 1), ("i", 1), ("q", 1), ("d", 1), ("d", 1), ("d", 1), ("d", 1)]
 for k, (f, per) in enumerate(cols):
     for r in range(nw):
         v = first + r if k == 0 else 0

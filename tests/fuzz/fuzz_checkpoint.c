@@ -49,7 +49,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (size && !(data[0] & 1)) {
         const int64_t S = sc->trajectory_samples, tl = (int64_t)strlen(sc->text),
                       pl = (int64_t)strlen(sc->path);
-        fwrite("GCPCKPT2", 1, 8, fp);
+        fwrite("GCPCKPT3", 1, 8, fp);
         fwrite(&S, sizeof S, 1, fp);
         /* the row count comes from the input (next 8 bytes), then the header's rest */
         int64_t rows = 0;
