@@ -38,7 +38,7 @@
  *     2.3 for a 63-deg mirror, 3.1 at 69 deg, 3.5 at 71 deg.  No w reaches
  *     3x below ~69 deg.
  *   - the orbit's phase (the azimuth at a given time) follows the local
- *     error: at a = 1/4, 1.8-1.9x fewer steps than the best fixed step for
+ *     error: at a = 1/4, 1.3-1.8x fewer steps than the best fixed step for
  *     the same drift phase at 63 deg, 2.8-3.8x at 75 deg.  a = 1/8 does as
  *     well at 63 deg and worse (1.5-1.9x) at 71 deg, a = 1/3 worse at
  *     both; a = 1/2 needs more steps than fixed.
