@@ -290,13 +290,22 @@ static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
 }
 
 /* One step through the chart's inversion (charts without lift_eval). */
+/* Why a step failed (enum gcp_step_failure, issue 11): kept in the lane for
+ * the caller, which restores the rest of the lane and reports it with
+ * gcp_lane_fail. */
+static int gl_fail(struct gl_lane *L, int why)
+{
+    L->fail = why;
+    return GCP_STEP_FAILED;
+}
+
 static int gl_step_invert(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                           struct gl_lane *L, double h)
 {
     const struct gl_tableau *T = C->tab;
     const int s = T->s, n = 2 * s;
     double K[GL_SMAX][2], Y[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2];
-    if (gl_predict(C, k, L, K)) return GCP_STEP_FAILED;
+    if (gl_predict(C, k, L, K)) return gl_fail(L, GCP_FAIL_CHART);
     if (L->have_J && L->hJ != h) L->have_J = 0;
     int refreshed = 0;
     double nprev = INFINITY;
@@ -309,27 +318,27 @@ static int gl_step_invert(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                 Y[i][r] = L->z[1 + 2 * r] + h * acc;
             }
             if (gl_rhs(C, k, L, Y[i][0], Y[i][1], L->aux[1 + i], g[i], pd[i]))
-                return GCP_STEP_FAILED;
+                return gl_fail(L, GCP_FAIL_CHART);
             G[2 * i] = -(K[i][0] - g[i][0]);
             G[2 * i + 1] = -(K[i][1] - g[i][1]);
         }
         if (!L->have_J) {
-            if (gl_jacobian(C, k, L, h, Y, g)) return GCP_STEP_FAILED;
+            if (gl_jacobian(C, k, L, h, Y, g)) return gl_fail(L, GCP_FAIL_NONFINITE_STAGE);
             refreshed = 1;
         }
         double d[4];
         memcpy(d, G, sizeof d);
         lu_solve(L->J, L->piv, n, d);
         double nd = gl_update_norm(T, L, h, d);
-        if (!isfinite(nd)) return GCP_STEP_FAILED;
+        if (!isfinite(nd)) return gl_fail(L, GCP_FAIL_NONFINITE_STAGE);
         if (it > 0 && nd > 0.1 * nprev && nd > GL_TOL && !refreshed) {
             /* slow contraction with a kept Jacobian: refresh it once, redo the update */
-            if (gl_jacobian(C, k, L, h, Y, g)) return GCP_STEP_FAILED;
+            if (gl_jacobian(C, k, L, h, Y, g)) return gl_fail(L, GCP_FAIL_NONFINITE_STAGE);
             refreshed = 1;
             memcpy(d, G, sizeof d);
             lu_solve(L->J, L->piv, n, d);
             nd = gl_update_norm(T, L, h, d);
-            if (!isfinite(nd)) return GCP_STEP_FAILED;
+            if (!isfinite(nd)) return gl_fail(L, GCP_FAIL_NONFINITE_STAGE);
         }
         for (int i = 0; i < s; i++) K[i][0] += d[2 * i], K[i][1] += d[2 * i + 1];
         const int stalled = it > 0 && nd <= GL_FLOOR && nd > 0.5 * nprev;
@@ -339,7 +348,7 @@ static int gl_step_invert(const struct gl_ctx *C, const struct gcp_gc_consts *k,
         }
         nprev = nd;
     }
-    return GCP_STEP_FAILED;
+    return gl_fail(L, GCP_FAIL_NO_CONVERGENCE);
 }
 
 /* Lagrange weights w_m of the nodes x[0 .. m-1] at xi. */
@@ -574,13 +583,16 @@ static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, do
     struct gl_lane *L = vlane;
     const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
     const struct gl_lane save = *L;
-    int r = gcp_gl_step_canon(C, &k, L, h);
+    int r = gcp_gl_step_canon(C, &k, L, h), why = r ? L->fail : GCP_FAIL_NONE;
     double X[3], ppar;
-    if (!r) r = C->chart.from_canon(&C->chart, &k, L->z, L->aux[0], X, &ppar);
+    if (!r) {
+        r = C->chart.from_canon(&C->chart, &k, L->z, L->aux[0], X, &ppar);
+        why = GCP_FAIL_CHART; /* the end point's inversion */
+    }
     if (r) {
         /* nothing of the failed step is kept */
         *L = save;
-        return r == GCP_NONFINITE ? r : GCP_STEP_FAILED;
+        return r == GCP_NONFINITE ? r : gcp_lane_fail(b, i, why);
     }
     b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
     b->ppar[i] = ppar;
@@ -601,7 +613,7 @@ static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
         /* the scene refuses such runs before they start (gcp_pusher_type.applies);
          * a library caller gets STEP_FAILED on every lane */
         size_t n = b->n_active;
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        for (size_t i = 0; i < n; i++) b->status[i] = gcp_lane_fail(b, i, GCP_FAIL_UNSUPPORTED);
         b->n_active = gcp_block_retire(b, n, o->t0, 0);
         return b->n_active;
     }

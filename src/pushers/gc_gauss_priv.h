@@ -32,6 +32,7 @@ struct gl_lane {
     double J[16];               /* LU of the stage Jacobian (2s x 2s) */
     int piv[4];
     int have_K, have_J;
+    int fail;                   /* enum gcp_step_failure: why the last failed step failed */
     double sc[2];               /* [eta unit, P_eta unit] scales of eta and P_eta */
     double sc_pphi;             /* [kg m^2/s] scale of P_phi (chart residual of a stage point) */
     double DF[GL_SMAX][2][2];   /* the stage Jacobians of F behind J (lifted solver) */

@@ -109,6 +109,7 @@ static int sd_after(const struct gl_ctx *C, const struct gcp_gc_consts *k, struc
 {
     double X[3], ppar, dX[3], dp;
     int st = C->chart.from_canon(&C->chart, k, L->z, L->aux[0], X, &ppar);
+    L->fail = GCP_FAIL_CHART;
     if (st) return st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
     b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
     b->ppar[i] = ppar;
@@ -131,7 +132,9 @@ static int sd_land(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct
     for (int it = 0; it < SD_LAND_MAXIT; it++) {
         *L = save;
         if (gcp_gl_step_canon(C, k, L, dsk)) {
+            const int why = L->fail;
             *L = save;
+            L->fail = why;
             return GCP_STEP_FAILED;
         }
         const double got = L->t - save.t;
@@ -143,6 +146,7 @@ static int sd_land(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct
         dsk *= span / got;
     }
     *L = save;
+    L->fail = GCP_FAIL_NO_CONVERGENCE; /* the secant did not land on t_target */
     return GCP_STEP_FAILED;
 }
 
@@ -185,10 +189,11 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
     if (n == 0) return 0;
     struct gl_ctx C = {tab, {0}, GCP_SUNDMAN_A};
     struct sd_lane *S = NULL;
-    if (gcp_canon_chart_create(f, &C.chart, NULL, 0) == 0 && C.chart.field_strength)
-        S = malloc(b->n * sizeof *S);
+    const int chart = gcp_canon_chart_create(f, &C.chart, NULL, 0) == 0 && C.chart.field_strength;
+    if (chart) S = malloc(b->n * sizeof *S);
     if (!S) {
-        for (size_t i = 0; i < n; i++) b->status[i] = GCP_STEP_FAILED;
+        for (size_t i = 0; i < n; i++)
+            b->status[i] = gcp_lane_fail(b, i, chart ? GCP_FAIL_NO_MEMORY : GCP_FAIL_UNSUPPORTED);
         b->n_active = gcp_block_retire(b, n, o->t0, 0);
         gcp_canon_chart_destroy(&C.chart);
         return b->n_active;
@@ -222,6 +227,7 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
                 S[i].steps++;
                 st = sd_after(&C, &k, L, b, i, o->adiabaticity_max);
             }
+            if (st == GCP_STEP_FAILED) st = gcp_lane_fail(b, i, L->fail);
             if (st) b->status[i] = st;
         }
         n = sd_retire(b, S, n);
