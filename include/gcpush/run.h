@@ -107,6 +107,8 @@ struct gcp_scene {
     int64_t trajectory_samples; /* samples per particle, incl. the initial one (0: none) */
     unsigned invariants;    /* [diagnostics] invariants: GCP_INV_* bits (invariants.h); 0: none */
     unsigned events;        /* [diagnostics] events: GCP_EVT_* bits; 0: none */
+    int64_t sample_every;   /* [diagnostics] sample_every: steps of the population's dt between
+                               cadence samples (GCP_OBSERVER_SAMPLE_STEPS by default) */
 };
 
 /* Reads, validates and resolves a run file (field built, periods turned

@@ -209,6 +209,10 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         }
         struct traj_ctx tc = {res, row0, 0, hy};
         struct gcp_sampler sampler = {s->pops[pop].trajectory_every, record, &tc};
+        /* method = hybrid: the observer sees each mode's steps through the
+         * hybrid's own hook (gcp_hybrid_set_observer), the trajectory keeps
+         * its sampler */
+        const struct gcp_sampler traj_sampler = sampler;
         struct multi_ctx mc = {obs, S ? s->pops[pop].trajectory_every : 0, 0, &tc};
         if (obs) sampler = (struct gcp_sampler){1, multi_sample, &mc};
         const double c0 = cpu_now();
@@ -217,9 +221,14 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
         if (S) record(&b, t0, &tc);
         const int64_t events_before = res->ev.n;
         if (obs) {
-            /* samples of particles with no equator point: every 64 steps of this population */
-            gcp_observer_set_sample_dt(obs, GCP_OBSERVER_SAMPLE_STEPS * s->pops[pop].dt);
+            /* cadence samples and the stream contour: every sample_every steps of this population */
+            gcp_observer_set_sample_dt(obs, (double)s->sample_every * s->pops[pop].dt);
             gcp_observer_begin(obs, &b, t0, first, &res->ev);
+            if (hy) {
+                const struct gcp_hybrid_observer ho = {gcp_observer_sample_mode, obs};
+                gcp_hybrid_set_observer(hy, &ho);
+                gcp_hybrid_observe(hy, &b, t0);
+            }
         }
         struct gcp_push_opts opts = {.t0 = t0,
                                      .dt = s->pops[pop].dt,
@@ -239,7 +248,7 @@ int gcp_scene_push(const struct gcp_scene *s, struct gcp_results *res,
             }
             opts.t0 = t0 + (double)done * s->pops[pop].dt;
             opts.nsteps = s->pops[pop].nsteps - done < slice ? s->pops[pop].nsteps - done : slice;
-            if (hy) gcp_hybrid_advance(hy, &b, s->field, &opts, S ? &sampler : NULL);
+            if (hy) gcp_hybrid_advance(hy, &b, s->field, &opts, S ? &traj_sampler : NULL);
             else s->pusher->advance(&b, s->field, s->pusher, &opts, (S || obs) ? &sampler : NULL);
             done += opts.nsteps;
         }

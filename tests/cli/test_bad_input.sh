@@ -180,6 +180,13 @@ gc gc-midpoint-pphi | igrf > case.run
 expect midpoint-in-igrf "method 'gc-midpoint-pphi' cannot run in the igrf field: the field model has no analytic vector potential"
 gc gc-vi > case.run
 expect gc-vi-renamed "case.run:18: \[integrator\] method: gc-vi is gone: it was not a variational integrator; use gc-gl2 or gc-gl4"
+# [diagnostics] sample_every: a whole number of steps (issue 13)
+diag() { good | sed "s/^\[output\]/[diagnostics]\ninvariants = mu\nsample_every = $1\n\n[output]/"; }
+diag 0 > case.run;      expect sample-every-zero 'case.run:23: \[diagnostics\] sample_every: must be in 1 .. 1000000000, got 0'
+diag 2.5 > case.run;    expect sample-every-fraction "case.run:23: \[diagnostics\] sample_every: expected a whole number, got '2.5'"
+diag '10 s' > case.run; expect sample-every-unit "case.run:23: \[diagnostics\] sample_every: expected a whole number, got '10 s'"
+diag 16 > case.run
+"$GCPUSH" --check case.run > /dev/null || die "sample_every = 16 refused"
 
 # --check validates without writing anything
 good > case.run
