@@ -157,6 +157,13 @@ PY
 "$PY" "$ROOT/analysis/plot_orbits.py" h1.h5 -o h1.png --max 12 > plot.txt 2>&1 ||
     die "plot_orbits.py on a hybrid file: $(tail -3 plot.txt)"
 [ -s h1.png ] || die "plot_orbits.py wrote no picture"
+# ... and invariant_drift.py follows mu across the switches (issue 14)
+"$PY" "$ROOT/analysis/invariant_drift.py" h1.h5 -o h1inv.png > inv.txt 2>&1 ||
+    die "invariant_drift.py on a hybrid file: $(tail -3 inv.txt)"
+grep -q "^hybrid: mu rows from full-orbit stretches [1-9]" inv.txt ||
+    die "invariant_drift.py: no full-orbit mu rows: $(cat inv.txt)"
+grep -q "^hybrid: largest mu jump of particle" inv.txt || die "invariant_drift.py: no mu jumps"
+[ -s h1inv.png ] || die "invariant_drift.py wrote no picture"
 
 # ---- 1 and 3 ranks: the same data ----
 sed "s/OUT/h3.h5/" hy.run > h3.run
