@@ -22,6 +22,12 @@
  *   loss            the lane stopped (status != ALIVE); for PRECIPITATED
  *                   and LEFT_DOMAIN through r_inner / r_outer the crossing
  *                   of the sphere is interpolated within the last step.
+ *   no bounce       (invariants_samples.c) a particle with no equator point
+ *                   gets mu / energy / p_phi samples on a time cadence, and
+ *                   one whose equator points make no turn gets its drift
+ *                   events from the guiding centre on that cadence (drift-
+ *                   phase crossings); an undefined event per particle says
+ *                   why an asked quantity is missing.
  *
  * Guiding-centre pushers feed their own state (X, p_par, mu) in at every
  * step.  Full-orbit pushers are turned into a guiding-centre stream first:
@@ -35,7 +41,12 @@
  * gyro-period removes what is left of the first harmonic, so the reported
  * mu is steady to O(eps^2) (eps = rho/L_B) where the raw value swings by
  * O(eps).  One stream sample per gyration then goes through the same event
- * logic as a guiding-centre step.
+ * logic as a guiding-centre step.  (So the full-orbit mu is the zeroth-order
+ * moment p_perp^2/(2 m B) at the first-order guiding centre, gyro-averaged,
+ * not the first-order invariant: equal to it to O(eps^2) in vacuum fields.)
+ * method = hybrid: each lane's steps come with their mode
+ * (gcp_observer_sample_mode), GC steps into the stream as they are, FO steps
+ * through the gyro-average; events carry the mode in .status.
  *
  * Cost: nothing unless a run asks (the driver attaches no observer);
  * asked, per step one block field evaluation (GC) or two scalar ones (FO).
