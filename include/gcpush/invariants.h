@@ -188,7 +188,7 @@ struct gcp_observer_opts {
      * row at all (its equator rows are unchanged): each particle has the
      * one kind of row or the other.
      * The same cadence feeds the stream's drift contour (the guiding
-     * centre at t0 + k sample_dt, or every stream sample if 0): its turns
+     * centre at t0 + k sample_dt; none if 0): its turns
      * are drift events (contour GCP_CONTOUR_STREAM) for a particle whose
      * equator points made none.  The driver sets [diagnostics]
      * sample_every (default GCP_OBSERVER_SAMPLE_STEPS) times the

@@ -65,12 +65,7 @@ void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const s
     }
     /* the stream contour, until the equator contour has made a turn (its
      * rows would be dropped then) */
-    if (!o->want_drift || L->n_drift_eq) return;
-    if (!(T > 0)) {
-        if (L->have_s1) stream_point(o, L, id, a, s, s->t);
-        else stream_point(o, L, id, s, s, s->t);
-        return;
-    }
+    if (!o->want_drift || L->n_drift_eq || !(T > 0)) return;
     for (;;) {
         const double tk = o->t0 + (double)L->d_k * T;
         if (tk > s->t) break;
