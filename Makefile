@@ -49,7 +49,7 @@ TEST_OBJ := $(TEST_SRC:%.c=$(BUILD)/%.o)
 FUZZ_SECONDS ?= 600
 FUZZER   := build-fuzz/fuzz_runfile
 FUZZ_SRC := src/error.c src/units.c src/particles.c src/run/section.c src/run/runfile.c src/run/field_keys.c \
-            $(wildcard src/run/scene*.c) $(wildcard src/pushers/hybrid*.c) src/run/sweep_spec.c src/run/sweep_exact.c src/diag/periods.c src/diag/invariants.c \
+            $(wildcard src/run/scene*.c) $(wildcard src/pushers/hybrid*.c) src/run/sweep_spec.c src/run/sweep_exact.c src/diag/periods.c $(wildcard src/diag/invariants*.c) \
             src/pushers/block.c src/pushers/evolve.c src/pushers/fo_step.c src/pushers/fo_rk8pd.c \
             $(wildcard src/pushers/boris*.c src/pushers/vay.c src/pushers/higuera_cary.c) \
             $(wildcard src/pushers/gc_*.c src/pushers/canon_*.c) $(wildcard fields/*.c) tests/fuzz/fuzz_runfile.c

@@ -120,6 +120,23 @@ void gcp_hybrid_free(struct gcp_hybrid *h);
 void gcp_hybrid_begin(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_field *f,
                       double t0, int64_t id0);
 
+/* A per-step observer (the invariant observer: gcp_observer_sample_mode):
+ * fn(v, t, mode, ctx) after every GC step of the GC lanes (mode GCP_MODE_GC,
+ * lanes holding X, p_par, mu) and every FO step of the FO lanes (mode
+ * GCP_MODE_FO, lanes holding x, u), with the lanes of one push live in v
+ * (v->index[i]: the stable index, as the block's b->index).  The GC method
+ * is then pushed with a sampler of every = 1, as a plain GC run with an
+ * observer is, so a lane that never switches is observed as in that run.
+ * fn = NULL: none (the default). */
+struct gcp_hybrid_observer {
+    void (*fn)(const struct gcp_block *v, double t, int mode, void *ctx);
+    void *ctx;
+};
+void gcp_hybrid_set_observer(struct gcp_hybrid *h, const struct gcp_hybrid_observer *obs);
+/* Calls the observer with the live lanes of b at time t (both modes): the
+ * start, after gcp_hybrid_begin and the observer's own begin. */
+void gcp_hybrid_observe(struct gcp_hybrid *h, const struct gcp_block *b, double t);
+
 /* Mode and totals of the lane with stable index `index` (b->index[i]). */
 int gcp_hybrid_mode(const struct gcp_hybrid *h, size_t index);
 void gcp_hybrid_info(const struct gcp_hybrid *h, size_t index, struct gcp_hybrid_lane_info *out);

@@ -22,6 +22,12 @@
  *   loss            the lane stopped (status != ALIVE); for PRECIPITATED
  *                   and LEFT_DOMAIN through r_inner / r_outer the crossing
  *                   of the sphere is interpolated within the last step.
+ *   no bounce       (invariants_samples.c) a particle with no equator point
+ *                   gets mu / energy / p_phi samples on a time cadence, and
+ *                   one whose equator points make no turn gets its drift
+ *                   events from the guiding centre on that cadence (drift-
+ *                   phase crossings); an undefined event per particle says
+ *                   why an asked quantity is missing.
  *
  * Guiding-centre pushers feed their own state (X, p_par, mu) in at every
  * step.  Full-orbit pushers are turned into a guiding-centre stream first:
@@ -35,7 +41,12 @@
  * gyro-period removes what is left of the first harmonic, so the reported
  * mu is steady to O(eps^2) (eps = rho/L_B) where the raw value swings by
  * O(eps).  One stream sample per gyration then goes through the same event
- * logic as a guiding-centre step.
+ * logic as a guiding-centre step.  (So the full-orbit mu is the zeroth-order
+ * moment p_perp^2/(2 m B) at the first-order guiding centre, gyro-averaged,
+ * not the first-order invariant: equal to it to O(eps^2) in vacuum fields.)
+ * method = hybrid: each lane's steps come with their mode
+ * (gcp_observer_sample_mode), GC steps into the stream as they are, FO steps
+ * through the gyro-average; events carry the mode in .status.
  *
  * Cost: nothing unless a run asks (the driver attaches no observer);
  * asked, per step one block field evaluation (GC) or two scalar ones (FO).
@@ -50,6 +61,7 @@
 #include "particles.h"
 #include "units.h"
 #include "pusher.h"
+#include "hybrid.h"
 #include "api.h"
 GCP_API_BEGIN
 
@@ -69,10 +81,13 @@ enum gcp_invariant_bits {
 /* [diagnostics] events = bounce drift loss */
 enum gcp_event_bits { GCP_EVT_BOUNCE = 1u, GCP_EVT_DRIFT = 2u, GCP_EVT_LOSS = 4u };
 
-/* Event tables (one HDF5 table each). */
+/* Event tables (one HDF5 table each).  .status of an event: for a loss its
+ * enum gcp_status; for the others the mode (enum gcp_hybrid_mode) of the
+ * stream sample that closed it -- GCP_MODE_FO on a full-orbit stretch of
+ * method = hybrid, 0 (GCP_MODE_GC) for every other method. */
 enum gcp_event_kind {
     GCP_EVENT_BOUNCE = 0, /* v: period, J, K, lat1, lat2, Bm1, Bm2, x1[3], x2[3], mu */
-    GCP_EVENT_DRIFT = 1,  /* v: period, Lstar, Phi */
+    GCP_EVENT_DRIFT = 1,  /* v: enum gcp_drift_slot */
     GCP_EVENT_MU = 2,     /* v: mu (at each equator point) */
     GCP_EVENT_ENERGY = 3, /* v: kinetic energy [J] (at each equator point) */
     GCP_EVENT_PPHI = 4,   /* v: p_phi [kg m^2/s] (at each equator point) */
@@ -81,8 +96,49 @@ enum gcp_event_kind {
                              orbit, -1 to guiding centre), dp2 (energy rescaling) */
     GCP_EVENT_SAMPLE = 7, /* a particle with no equator point, every sample_dt: v: mu [J/T],
                              energy [J], p_phi [kg m^2/s] (NaN where not asked) */
-    GCP_EVENT_KINDS = 8
+    GCP_EVENT_UNDEFINED = 8, /* one per particle with an asked quantity missing, at the end of
+                                its push: v[enum gcp_undefined_slot] = enum gcp_undefined */
+    GCP_EVENT_KINDS = 9
 };
+
+/* Value slots of a drift event. */
+enum gcp_drift_slot {
+    GCP_DRIFT_PERIOD = 0,  /* [s] time for the azimuth to turn by 2 pi */
+    GCP_DRIFT_LSTAR = 1,   /* [1] 2 pi B0 R_E^2 / Phi */
+    GCP_DRIFT_PHI = 2,     /* [T m^2] |oint A . dl| */
+    GCP_DRIFT_CONTOUR = 3  /* enum gcp_contour: the points the turn was made of */
+};
+/* The drift contour a drift event came from. */
+enum gcp_contour {
+    GCP_CONTOUR_EQUATOR = 0, /* the equator points (one per half-bounce) */
+    GCP_CONTOUR_STREAM = 1   /* the guiding centre on the sample_dt cadence: kept only for a
+                                particle whose equator points made no turn (equatorially
+                                mirroring, passing, or too few bounces per drift) */
+};
+
+/* Why an asked quantity has no row (or a NaN one) for a particle. */
+enum gcp_undefined {
+    GCP_UNDEF_NONE = 0,          /* defined: it has rows */
+    GCP_UNDEF_NOT_ASKED = 1,     /* [diagnostics] did not ask for it */
+    GCP_UNDEF_NO_MIRROR = 2,     /* p_par never changed sign (passing orbit, uniform field) */
+    GCP_UNDEF_NO_BOUNCE = 3,     /* mirror points, but not three in a row (push too short or
+                                    stopped early) */
+    GCP_UNDEF_NO_EQUATOR = 4,    /* no minimum of |B| between two mirror points (equatorially
+                                    mirroring or no bounce): mu, energy, pphi are in
+                                    /invariants/samples */
+    GCP_UNDEF_NO_TURN = 5,       /* the guiding centre's azimuth did not turn by 2 pi */
+    GCP_UNDEF_NO_POTENTIAL = 6,  /* the field gives no vector potential (igrf): Phi, L* NaN */
+    GCP_UNDEF_COUNT = 7
+};
+/* Value slots of an undefined event: one reason per quantity. */
+enum gcp_undefined_slot {
+    GCP_UNDEF_BOUNCE = 0,  /* bounce period, J, K */
+    GCP_UNDEF_EQUATOR = 1, /* mu, energy, pphi at equator points */
+    GCP_UNDEF_DRIFT = 2,   /* drift period */
+    GCP_UNDEF_LSTAR = 3    /* L*, Phi */
+};
+/* The name of a reason ("NO_MIRROR", ...). */
+const char *gcp_undefined_name(int why);
 
 /* Value slots of a bounce event. */
 enum gcp_bounce_slot {
@@ -130,8 +186,13 @@ struct gcp_observer_opts {
      * t0 + k sample_dt (k = 1, 2, ...; linear interpolation of the
      * guiding-centre stream), and one with an equator point gets no sample
      * row at all (its equator rows are unchanged): each particle has the
-     * one kind of row or the other.  The driver sets
-     * GCP_OBSERVER_SAMPLE_STEPS times the population's dt. */
+     * one kind of row or the other.
+     * The same cadence feeds the stream's drift contour (the guiding
+     * centre at t0 + k sample_dt; none if 0): its turns
+     * are drift events (contour GCP_CONTOUR_STREAM) for a particle whose
+     * equator points made none.  The driver sets [diagnostics]
+     * sample_every (default GCP_OBSERVER_SAMPLE_STEPS) times the
+     * population's dt. */
     double sample_dt;
 };
 #define GCP_OBSERVER_SAMPLE_STEPS 64
@@ -150,14 +211,25 @@ void gcp_observer_free(struct gcp_observer *o);
  * is kept by b->index (stable under the stepper's lane swaps). */
 void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, double t0,
                         int64_t id0, struct gcp_events *out);
-/* The sampler function (ctx = the observer): call after every step. */
+/* The sampler function (ctx = the observer): call after every step.  For
+ * method = hybrid it only notes the lanes that stopped: the samples come
+ * through gcp_observer_sample_mode. */
 void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx);
+/* method = hybrid (an observer created with gcp_pusher_hybrid): the live
+ * lanes of b after a step of the given mode (enum gcp_hybrid_mode): GC
+ * lanes hold X, p_par, mu and go into the stream as they are, FO lanes hold
+ * x, u and go through the gyro-average as for a full-orbit method; a lane
+ * whose mode changed drops its unfinished gyration.  b->index[i] is the
+ * lane's stable index as in gcp_observer_begin. */
+void gcp_observer_sample_mode(const struct gcp_block *b, double t, int mode, void *ctx);
 /* Sets opts.sample_dt for the next gcp_observer_begin (populations differ
- * in dt). */
+ * in dt; 0: no cadence). */
 void gcp_observer_set_sample_dt(struct gcp_observer *o, double sample_dt);
-/* After the push: drops the sample rows of lanes that had an equator
- * point; loss events for lanes that stopped and were not seen (e.g. at the
- * start).  Returns 0, or GCP_ERR_NOMEM if an event was lost. */
+/* After the push: loss events for lanes that stopped and were not seen
+ * (e.g. at the start); drops the sample rows of lanes that had an equator
+ * point and the stream-contour drift rows of lanes with an equator-contour
+ * one; one GCP_EVENT_UNDEFINED row per lane with an asked quantity
+ * missing.  Returns 0, or GCP_ERR_NOMEM if an event was lost. */
 int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b);
 
 /* Equatorial pitch-angle classification at the start, dipole fields:

@@ -110,6 +110,8 @@ struct gcp_scene {
     unsigned invariants;    /* [diagnostics] invariants: GCP_INV_* bits (invariants.h); 0: none */
     unsigned events;        /* [diagnostics] events: GCP_EVT_* bits; 0: none */
     struct gcp_sweep_spec *sweep; /* the [sweep] section (sweep.h), read with the rest; NULL: none */
+    int64_t sample_every;   /* [diagnostics] sample_every: steps of the population's dt between
+                               cadence samples (GCP_OBSERVER_SAMPLE_STEPS by default) */
 };
 
 /* Reads, validates and resolves a run file (field built, periods turned

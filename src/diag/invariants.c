@@ -28,7 +28,12 @@
  *     (psi_a + psi_b)/2 dphi + <A_R> dR + <A_z> dz; in an axisymmetric
  *     field (A = A_phi phihat) it reduces to 2 pi psi for a closed contour,
  *     whatever the spacing of the points.  The last segment is cut where
- *     the azimuth has turned by exactly 2 pi (linear in the segment). */
+ *     the azimuth has turned by exactly 2 pi (linear in the segment).
+ *
+ * Files: invariants.c (events, the stream, the sampler), invariants_fo.c
+ * (the full-orbit gyro-average, the loss-cone classification),
+ * invariants_samples.c (what particles that do not bounce get: cadence
+ * samples, the stream's drift contour, the reasons a quantity is missing). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,77 +43,7 @@
 #include "gcpush/invariants.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
-
-/* One guiding-centre stream sample. */
-struct gsample {
-    double t;     /* [s] */
-    double X[3];  /* [m] guiding centre */
-    double ppar;  /* [kg m/s] */
-    double mu;    /* [J/T] */
-    double B;     /* [T] |B(X)| */
-    double p2;    /* [kg^2 m^2/s^2] p^2 */
-};
-
-/* A point of the drift contour (an equator point). */
-struct cpoint {
-    double t, phi, R, z; /* phi unwrapped along the contour */
-    double psi, AR, Az;  /* R A_phi [T m^2], A_R, A_z [T m] */
-};
-
-struct lane {
-    int active, loss_done;
-    double xprev[3], tprev;
-    /* full orbit: the gyration in progress */
-    int g_init, g_left;   /* g_left: the gyroradius has been on the far side of e1 */
-    double rho_prev[3], g_e1[3], g_e2[3], g_t0, g_tprev;
-    double g_acc[6], g_prev[6]; /* X[3], ppar, mu, p2 */
-    /* stream */
-    int have_s1;
-    struct gsample s1;
-    /* half-bounce */
-    int half_valid;  /* began at a mirror point */
-    double J_acc;    /* int p_par v_par dt of the half so far */
-    double eq_Bmin;
-    int eq_need_next, eq_has_prev, eq_valid;
-    struct gsample e0, e1, e2;
-    /* bounce */
-    int nm;          /* mirror points of the bounce in progress (0: none yet) */
-    double tb0, Jb, mub;
-    double lat[2], Bm[2], xm[2][3];
-    /* drift */
-    int c_n;
-    struct cpoint cprev;
-    double c_phi0, c_t0, c_acc;
-    /* cadence samples (opts.sample_dt): the next grid index k of
-     * t0 + k sample_dt; had_eq: an equator point (mu, energy, p_phi rows)
-     * was found in this push.  The test is the equator point, not a mirror
-     * point: a full orbit at pitch 90 deg on a curved field's equator has
-     * p_par ~ 0 and its gyro-averaged sign flips (mirror points) without
-     * an equator point between them, and it too must get its samples. */
-    int had_eq;
-    int64_t s_k;
-};
-
-struct gcp_observer {
-    const struct gcp_field *f;
-    const struct gcp_pusher_type *p;
-    struct gcp_observer_opts opts;
-    int gc;           /* guiding-centre pusher */
-    int stream;       /* any stream work at all */
-    int want_bounce, want_drift, want_eq;
-    double B0;        /* [T] reference for L* */
-    size_t nlanes;
-    struct lane *lane;
-    double *Bx, *By, *Bz; /* scratch: B at the lanes */
-    double *Xx, *Xy, *Xz, *Cx, *Cy, *Cz; /* full orbit: first-order guiding centre, B there */
-    int32_t *fst;
-    double q, m;
-    int64_t id0;
-    double t0;            /* the push's start (the cadence grid's origin) */
-    int64_t ev_begin;     /* out->n at gcp_observer_begin */
-    struct gcp_events *out;
-    int nomem;
-};
+#include "invariants_priv.h"
 
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
@@ -148,14 +83,10 @@ int gcp_events_sort(struct gcp_events *ev)
     return 0;
 }
 
-static void emit(struct gcp_observer *o, const struct gcp_event *e)
+void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event *e)
 {
+    if (e->kind != GCP_EVENT_LOSS) e->status = L ? L->mode : 0;
     if (gcp_events_push(o->out, e)) o->nomem = 1;
-}
-
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
 double gcp_observer_reference_B0(const struct gcp_field *f)
@@ -189,13 +120,13 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->opts = *opts;
     o->nlanes = n;
     o->gc = p->kind == GCP_GUIDING_CENTRE;
+    o->hybrid = p->kind == GCP_HYBRID;
     o->want_bounce = (opts->invariants & (GCP_INV_J | GCP_INV_K)) || (opts->events & GCP_EVT_BOUNCE);
     o->want_drift = (opts->invariants & GCP_INV_L) || (opts->events & GCP_EVT_DRIFT);
     o->want_eq = o->want_drift ||
                  (opts->invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI));
     o->stream = o->want_bounce || o->want_eq;
-    if (!(opts->sample_dt > 0) || !(opts->invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI)))
-        o->opts.sample_dt = 0.0;
+    if (!(opts->sample_dt > 0)) o->opts.sample_dt = 0.0;
     o->B0 = opts->B0 > 0 ? opts->B0 : gcp_observer_reference_B0(f);
     *out = o;
     return 0;
@@ -216,15 +147,22 @@ void gcp_observer_free(struct gcp_observer *o)
 
 /* ---- the guiding-centre stream ---------------------------------------- */
 
-static double gamma_m(const struct gcp_observer *o, double p2)
+double gcp_obs_gamma_m(const struct gcp_observer *o, double p2)
 {
     return sqrt(o->m * o->m + p2 / (GCP_C_LIGHT * GCP_C_LIGHT));
+}
+
+double gcp_obs_energy(const struct gcp_observer *o, double p2)
+{
+    const double c2 = GCP_C_LIGHT * GCP_C_LIGHT, mc2 = o->m * c2;
+    /* W = p^2 c^2 / (E + m c^2): no cancellation at small energies */
+    return p2 * c2 / (gcp_obs_gamma_m(o, p2) * c2 + mc2);
 }
 
 /* p_par v_par = p_par^2 / (gamma m) [kg m^2/s^2... per s]: the J integrand. */
 static double jdot(const struct gcp_observer *o, const struct gsample *s)
 {
-    return s->ppar * s->ppar / gamma_m(o, s->p2);
+    return s->ppar * s->ppar / gcp_obs_gamma_m(o, s->p2);
 }
 
 static void lagrange3(double t0, double t1, double t2, double t, double w[3])
@@ -234,15 +172,14 @@ static void lagrange3(double t0, double t1, double t2, double t, double w[3])
     w[2] = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1));
 }
 
-/* Contour quantities of one sample. */
-static void contour_of(const struct gcp_observer *o, const struct gsample *s, double *phi,
-                       double *R, double *psi, double *AR, double *Az)
+/* Contour quantities of a position. */
+void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
+                        double *R, double *psi, double *AR, double *Az)
 {
-    const double *X = s->X;
     *R = hypot(X[0], X[1]);
     *phi = atan2(X[1], X[0]);
     double A[3];
-    if (gcp_gc_potential(o->f, s->t, X, A, NULL, NULL) || !(*R > 0)) {
+    if (gcp_gc_potential(o->f, t, X, A, NULL, NULL) || !(*R > 0)) {
         *psi = *AR = *Az = NAN;
         return;
     }
@@ -252,47 +189,52 @@ static void contour_of(const struct gcp_observer *o, const struct gsample *s, do
     *Az = A[2];
 }
 
-static double wrap_pi(double a)
+double gcp_obs_wrap_pi(double a)
 {
     while (a > GCP_PI) a -= 2.0 * GCP_PI;
     while (a <= -GCP_PI) a += 2.0 * GCP_PI;
     return a;
 }
 
-static void drift_point(struct gcp_observer *o, struct lane *L, int64_t id, struct cpoint P)
+void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour *c, int64_t id,
+                         struct cpoint P, int which)
 {
-    if (L->c_n == 0) {
-        L->c_phi0 = P.phi;
-        L->c_t0 = P.t;
-        L->c_acc = 0.0;
-        L->cprev = P;
-        L->c_n = 1;
+    if (!isfinite(P.psi)) L->psi_nan = 1;
+    if (c->n == 0) {
+        c->phi0 = P.phi;
+        c->t0 = P.t;
+        c->acc = 0.0;
+        c->prev = P;
+        c->n = 1;
         return;
     }
-    const struct cpoint *a = &L->cprev;
-    const double dphi = wrap_pi(P.phi - a->phi);
+    const struct cpoint *a = &c->prev;
+    const double dphi = gcp_obs_wrap_pi(P.phi - a->phi);
     P.phi = a->phi + dphi; /* unwrapped */
     const double seg = 0.5 * (a->psi + P.psi) * dphi + 0.5 * (a->AR + P.AR) * (P.R - a->R) +
                        0.5 * (a->Az + P.Az) * (P.z - a->z);
-    const double turned = P.phi - L->c_phi0;
+    const double turned = P.phi - c->phi0;
     if (fabs(turned) >= 2.0 * GCP_PI && dphi != 0.0) {
         const double sgn = turned > 0 ? 1.0 : -1.0;
-        const double th = (sgn * 2.0 * GCP_PI - (a->phi - L->c_phi0)) / dphi;
+        const double th = (sgn * 2.0 * GCP_PI - (a->phi - c->phi0)) / dphi;
         const double tc = a->t + th * (P.t - a->t);
-        const double Phi = fabs(L->c_acc + th * seg);
+        const double Phi = fabs(c->acc + th * seg);
         struct gcp_event e = {.id = id, .kind = GCP_EVENT_DRIFT, .t = tc};
-        e.v[0] = tc - L->c_t0;
-        e.v[1] = 2.0 * GCP_PI * o->B0 * GCP_EARTH_RADIUS * GCP_EARTH_RADIUS / Phi;
-        e.v[2] = Phi;
-        emit(o, &e);
-        L->c_acc = (1.0 - th) * seg;
-        L->c_phi0 += sgn * 2.0 * GCP_PI;
-        L->c_t0 = tc;
+        e.v[GCP_DRIFT_PERIOD] = tc - c->t0;
+        e.v[GCP_DRIFT_LSTAR] = 2.0 * GCP_PI * o->B0 * GCP_EARTH_RADIUS * GCP_EARTH_RADIUS / Phi;
+        e.v[GCP_DRIFT_PHI] = Phi;
+        e.v[GCP_DRIFT_CONTOUR] = which;
+        gcp_obs_emit(o, L, &e);
+        if (which == GCP_CONTOUR_EQUATOR) L->n_drift_eq++;
+        else L->n_drift_st++;
+        c->acc = (1.0 - th) * seg;
+        c->phi0 += sgn * 2.0 * GCP_PI;
+        c->t0 = tc;
     } else {
-        L->c_acc += seg;
+        c->acc += seg;
     }
-    L->cprev = P;
-    L->c_n++;
+    c->prev = P;
+    c->n++;
 }
 
 /* The equator point of the half-bounce that just closed (e0, e1, e2). */
@@ -316,14 +258,12 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
     if (o->opts.invariants & GCP_INV_MU) {
         struct gcp_event e = {.id = id, .kind = GCP_EVENT_MU, .t = te};
         e.v[0] = mu;
-        emit(o, &e);
+        gcp_obs_emit(o, L, &e);
     }
     if (o->opts.invariants & GCP_INV_ENERGY) {
         struct gcp_event e = {.id = id, .kind = GCP_EVENT_ENERGY, .t = te};
-        const double mc2 = o->m * GCP_C_LIGHT * GCP_C_LIGHT;
-        /* W = p^2 c^2 / (E + m c^2): no cancellation at small energies */
-        e.v[0] = p2 * GCP_C_LIGHT * GCP_C_LIGHT / (gamma_m(o, p2) * GCP_C_LIGHT * GCP_C_LIGHT + mc2);
-        emit(o, &e);
+        e.v[0] = gcp_obs_energy(o, p2);
+        gcp_obs_emit(o, L, &e);
     }
     if (o->opts.invariants & GCP_INV_PPHI) {
         struct gcp_event e = {.id = id, .kind = GCP_EVENT_PPHI, .t = te};
@@ -334,14 +274,15 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
             v += w[k] * pp;
         }
         e.v[0] = v;
-        emit(o, &e);
+        gcp_obs_emit(o, L, &e);
     }
     if (o->want_drift) {
         double phi[3], R[3], psi[3], AR[3], Az[3];
-        for (int k = 0; k < 3; k++) contour_of(o, s[k], &phi[k], &R[k], &psi[k], &AR[k], &Az[k]);
+        for (int k = 0; k < 3; k++)
+            gcp_obs_contour_of(o, s[k]->t, s[k]->X, &phi[k], &R[k], &psi[k], &AR[k], &Az[k]);
         struct cpoint P = {.t = te};
         for (int k = 0; k < 3; k++) {
-            const double ph = phi[1] + wrap_pi(phi[k] - phi[1]);
+            const double ph = phi[1] + gcp_obs_wrap_pi(phi[k] - phi[1]);
             P.phi += w[k] * ph;
             P.R += w[k] * R[k];
             P.z += w[k] * s[k]->X[2];
@@ -349,8 +290,8 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
             P.AR += w[k] * AR[k];
             P.Az += w[k] * Az[k];
         }
-        P.phi = wrap_pi(P.phi);
-        drift_point(o, L, id, P);
+        P.phi = gcp_obs_wrap_pi(P.phi);
+        gcp_obs_drift_point(o, L, &L->ceq, id, P, GCP_CONTOUR_EQUATOR);
     }
 }
 
@@ -367,7 +308,8 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     const double Bma = a->mu > 0 ? a->p2 / (2.0 * o->m * a->mu) : NAN;
     const double Bmb = s->mu > 0 ? s->p2 / (2.0 * o->m * s->mu) : NAN;
     const double Bm = Bma + th * (Bmb - Bma);
-    const double lat = asin(xm[2] / sqrt(dot3(xm, xm)));
+    L->n_mirror++;
+    const double lat = asin(xm[2] / sqrt(gcp_obs_dot3(xm, xm)));
     /* close the half-bounce: end piece and Euler-Maclaurin correction */
     const double h = s->t - a->t, fa = jdot(o, a), da = tm - a->t;
     double Jh = L->J_acc;
@@ -396,7 +338,8 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
             memcpy(&e.v[GCP_BOUNCE_X], L->xm[0], 3 * sizeof(double));
             memcpy(&e.v[GCP_BOUNCE_X + 3], L->xm[1], 3 * sizeof(double));
             e.v[GCP_BOUNCE_MU] = mubar;
-            if (o->want_bounce) emit(o, &e);
+            L->n_bounce++;
+            if (o->want_bounce) gcp_obs_emit(o, L, &e);
             L->nm = 1;
         }
     } else {
@@ -417,44 +360,8 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     L->eq_has_prev = 0;
 }
 
-/* Cadence samples of a lane with no equator point yet: mu, energy, p_phi at
- * every grid time t0 + k sample_dt in (s1.t, s.t], linear in t between the
- * two stream samples (exact for the constants they are meant to show;
- * O(h^2) otherwise, h the stream spacing: dt, or a gyration for full
- * orbits).  Grid times before the first stream sample are skipped. */
-static void cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s)
-{
-    const double T = o->opts.sample_dt;
-    const unsigned inv = o->opts.invariants;
-    for (;;) {
-        /* t0 + k T, not a running sum: the grid does not drift with k */
-        const double tk = o->t0 + (double)L->s_k * T;
-        if (tk > s->t) break;
-        L->s_k++;
-        if (!L->have_s1 || tk <= L->s1.t) continue;
-        const struct gsample *a = &L->s1;
-        const double th = (tk - a->t) / (s->t - a->t);
-        struct gcp_event e = {.id = id, .kind = GCP_EVENT_SAMPLE, .t = tk};
-        e.v[0] = e.v[1] = e.v[2] = NAN;
-        if (inv & GCP_INV_MU) e.v[0] = a->mu + th * (s->mu - a->mu);
-        if (inv & GCP_INV_ENERGY) {
-            const double p2 = a->p2 + th * (s->p2 - a->p2);
-            const double mc2 = o->m * GCP_C_LIGHT * GCP_C_LIGHT;
-            /* as at the equator: W = p^2 c^2 / (E + m c^2) */
-            e.v[1] = p2 * GCP_C_LIGHT * GCP_C_LIGHT / (gamma_m(o, p2) * GCP_C_LIGHT * GCP_C_LIGHT + mc2);
-        }
-        if (inv & GCP_INV_PPHI) {
-            double pa = NAN, pb = NAN;
-            gcp_gc_pphi(o->f, a->t, o->q, a->X, a->ppar, &pa);
-            gcp_gc_pphi(o->f, s->t, o->q, s->X, s->ppar, &pb);
-            e.v[2] = pa + th * (pb - pa);
-        }
-        emit(o, &e);
-    }
-}
-
-static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
-                          const struct gsample *s)
+void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
+                           const struct gsample *s)
 {
     int first_of_half = !L->have_s1;
     if (L->have_s1) {
@@ -469,8 +376,7 @@ static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
             L->mub += 0.5 * (a->mu + s->mu) * (s->t - a->t);
         }
     }
-    /* once it has an equator point, its rows would be dropped at the end: none made */
-    if (o->opts.sample_dt > 0 && !L->had_eq) cadence(o, L, id, s);
+    gcp_obs_cadence(o, L, id, s);
     if (o->want_eq) {
         if (s->B < L->eq_Bmin) {
             L->eq_Bmin = s->B;
@@ -489,76 +395,6 @@ static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
     L->have_s1 = 1;
 }
 
-/* Full orbit: one step into the gyro-average; emits a stream sample at each
- * completed gyration.  X, p_par, mu: the first-order guiding centre of this
- * step (computed for the block in observe_live); rho = x - X; bx: b(x).
- * A gyration ends where the gyroradius vector crosses the half-plane
- * spanned by b and e1 (e1: its direction when the gyration began) again,
- * after having been on the far side: rho.e2 changes sign with rho.e1 > 0,
- * e2 = b x e1; the crossing is linear in the step. */
-static void fo_step(struct gcp_observer *o, struct lane *L, int64_t id, double t,
-                    const double v[6], const double rho[3], const double bx[3])
-{
-    if (!L->g_init) {
-        L->g_init = 1;
-        L->g_left = 0;
-        memcpy(L->rho_prev, rho, 3 * sizeof(double));
-        memcpy(L->g_prev, v, 6 * sizeof(double));
-        memset(L->g_acc, 0, sizeof L->g_acc);
-        L->g_t0 = L->g_tprev = t;
-        const double r = sqrt(dot3(rho, rho));
-        for (int k = 0; k < 3; k++) L->g_e1[k] = r > 0 ? rho[k] / r : 0.0;
-        const double *e = L->g_e1;
-        L->g_e2[0] = bx[1] * e[2] - bx[2] * e[1];
-        L->g_e2[1] = bx[2] * e[0] - bx[0] * e[2];
-        L->g_e2[2] = bx[0] * e[1] - bx[1] * e[0];
-        return;
-    }
-    const double dt = t - L->g_tprev;
-    const double a = dot3(L->rho_prev, L->g_e2), c = dot3(rho, L->g_e2);
-    if (dot3(rho, L->g_e1) < 0) L->g_left = 1;
-    int wrap = 0;
-    double th = 0;
-    if (L->g_left && ((a < 0 && c >= 0) || (a > 0 && c <= 0))) {
-        th = a / (a - c);
-        double rw[3];
-        for (int k = 0; k < 3; k++) rw[k] = L->rho_prev[k] + th * (rho[k] - L->rho_prev[k]);
-        wrap = dot3(rw, L->g_e1) > 0;
-    }
-    if (wrap) {
-        const double tw = L->g_tprev + th * dt;
-        double vw[6];
-        for (int k = 0; k < 6; k++) {
-            vw[k] = L->g_prev[k] + th * (v[k] - L->g_prev[k]);
-            L->g_acc[k] += 0.5 * (L->g_prev[k] + vw[k]) * (tw - L->g_tprev);
-        }
-        const double T = tw - L->g_t0;
-        if (T > 0) {
-            struct gsample s = {.t = 0.5 * (L->g_t0 + tw)};
-            for (int k = 0; k < 3; k++) s.X[k] = L->g_acc[k] / T;
-            s.ppar = L->g_acc[3] / T;
-            s.mu = L->g_acc[4] / T;
-            s.p2 = L->g_acc[5] / T;
-            struct gcp_field_sample fs = {.need = GCP_NEED_B};
-            gcp_field_eval(o->f, s.t, s.X, &fs);
-            s.B = sqrt(dot3(fs.B, fs.B));
-            stream_sample(o, L, id, &s);
-        }
-        for (int k = 0; k < 6; k++) L->g_acc[k] = 0.5 * (vw[k] + v[k]) * (t - tw);
-        L->g_t0 = tw;
-        L->g_left = 0;
-        /* e1, e2 follow the slowly turning field: e2 = b x e1 from this step */
-        const double *e = L->g_e1;
-        double e2[3] = {bx[1] * e[2] - bx[2] * e[1], bx[2] * e[0] - bx[0] * e[2],
-                        bx[0] * e[1] - bx[1] * e[0]};
-        memcpy(L->g_e2, e2, sizeof e2);
-    } else {
-        for (int k = 0; k < 6; k++) L->g_acc[k] += 0.5 * (L->g_prev[k] + v[k]) * dt;
-    }
-    memcpy(L->rho_prev, rho, 3 * sizeof(double));
-    memcpy(L->g_prev, v, 6 * sizeof(double));
-    L->g_tprev = t;
-}
 
 /* ---- losses ------------------------------------------------------------ */
 
@@ -575,24 +411,30 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     double rs = NAN;
     if (b->status[i] == GCP_PRECIPITATED) rs = o->f->r_inner;
     if (b->status[i] == GCP_LEFT_DOMAIN && isfinite(o->f->r_outer)) rs = o->f->r_outer;
-    const double r0 = sqrt(dot3(L->xprev, L->xprev)), r1 = sqrt(dot3(xe, xe));
+    const double r0 = sqrt(gcp_obs_dot3(L->xprev, L->xprev)), r1 = sqrt(gcp_obs_dot3(xe, xe));
     if (isfinite(rs) && L->tprev < b->t[i] && (r0 - rs) * (r1 - rs) <= 0 && r0 != r1) {
         /* solve |xprev + th d|^2 = rs^2 for th in [0, 1] */
         double d[3];
         for (int k = 0; k < 3; k++) d[k] = xe[k] - L->xprev[k];
-        const double A = dot3(d, d), B = 2.0 * dot3(L->xprev, d), C = r0 * r0 - rs * rs;
+        const double A = gcp_obs_dot3(d, d), B = 2.0 * gcp_obs_dot3(L->xprev, d), C = r0 * r0 - rs * rs;
         const double disc = sqrt(fmax(B * B - 4.0 * A * C, 0.0));
         double th = (r1 < r0) ? (-B - disc) / (2.0 * A) : (-B + disc) / (2.0 * A);
         if (!(th >= 0.0 && th <= 1.0)) th = (r0 - rs) / (r0 - r1);
         for (int k = 0; k < 3; k++) e.v[k] = L->xprev[k] + th * d[k];
         e.t = L->tprev + th * (b->t[i] - L->tprev);
     }
-    emit(o, &e);
+    gcp_obs_emit(o, L, &e);
 }
+
 
 /* ---- the sampler ------------------------------------------------------- */
 
-static void observe_live(struct gcp_observer *o, const struct gcp_block *b, double t)
+/* The live lanes of b at time t; gc: they hold guiding centres (X, p_par,
+ * mu), else particles (x, u); mode: the tag of their events (method =
+ * hybrid: enum gcp_hybrid_mode; a lane whose mode changed starts a new
+ * gyro-average, and its stream goes on). */
+static void observe_live(struct gcp_observer *o, const struct gcp_block *b, double t, int gc,
+                         int32_t mode)
 {
     const size_t n = b->n_active;
     if (o->stream && n) {
@@ -600,7 +442,7 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
                                NULL, o->fst);
     }
-    if (o->stream && !o->gc && n) {
+    if (o->stream && !gc && n) {
         /* first-order guiding centre of every lane (gcp_gc_from_fo, as a
          * block): rho = b x p / (q B) at x, X = x - rho; B at X next */
         const double m = o->m, qi = 1.0 / o->q;
@@ -617,28 +459,33 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
     }
     for (size_t i = 0; i < n; i++) {
         const size_t li = b->index[i];
+        if (li >= o->nlanes) continue;
         struct lane *L = &o->lane[li];
         if (!L->active) continue;
         const int64_t id = o->id0 + (int64_t)li;
+        if (L->mode != mode) {
+            L->mode = mode;
+            L->g_init = 0; /* the gyration in progress (if any) is not finished */
+        }
         if (o->stream) {
-            if (o->gc) {
+            if (gc) {
                 struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]}, .ppar = b->ppar[i],
                                     .mu = b->mu[i]};
                 s.B = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
                 s.p2 = s.ppar * s.ppar + 2.0 * o->m * s.mu * s.B;
-                stream_sample(o, L, id, &s);
+                gcp_obs_stream_sample(o, L, id, &s);
             } else {
                 const double m = o->m;
                 const double p[3] = {m * b->ux[i], m * b->uy[i], m * b->uz[i]};
                 const double BX = sqrt(o->Cx[i] * o->Cx[i] + o->Cy[i] * o->Cy[i] + o->Cz[i] * o->Cz[i]);
                 const double pp = (p[0] * o->Cx[i] + p[1] * o->Cy[i] + p[2] * o->Cz[i]) / BX;
-                const double p2 = dot3(p, p);
+                const double p2 = gcp_obs_dot3(p, p);
                 const double v[6] = {o->Xx[i], o->Xy[i], o->Xz[i], pp,
                                      fmax(p2 - pp * pp, 0.0) / (2.0 * m * BX), p2};
                 const double rho[3] = {b->x[i] - o->Xx[i], b->y[i] - o->Xy[i], b->z[i] - o->Xz[i]};
                 const double Bm = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
                 const double bx[3] = {o->Bx[i] / Bm, o->By[i] / Bm, o->Bz[i] / Bm};
-                fo_step(o, L, id, t, v, rho, bx);
+                gcp_obs_fo_step(o, L, id, t, v, rho, bx);
             }
         }
         L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
@@ -662,11 +509,12 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         memset(L, 0, sizeof *L);
         L->active = 1;
         L->eq_Bmin = INFINITY;
-        L->s_k = 1;
+        L->s_k = L->d_k = 1;
         L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
         L->tprev = t0;
     }
-    observe_live(o, b, t0);
+    /* method = hybrid: the mode of each lane comes with gcp_observer_sample_mode */
+    if (!o->hybrid) observe_live(o, b, t0, o->gc, 0);
 }
 
 void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
@@ -679,84 +527,32 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
         if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
-    observe_live(o, b, t);
+    if (!o->hybrid) observe_live(o, b, t, o->gc, 0);
+}
+
+void gcp_observer_sample_mode(const struct gcp_block *b, double t, int mode, void *ctx)
+{
+    struct gcp_observer *o = ctx;
+    observe_live(o, b, t, mode == GCP_MODE_GC, mode);
 }
 
 void gcp_observer_set_sample_dt(struct gcp_observer *o, double sample_dt)
 {
-    o->opts.sample_dt =
-        sample_dt > 0 && (o->opts.invariants & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI))
-            ? sample_dt : 0.0;
+    o->opts.sample_dt = sample_dt > 0 ? sample_dt : 0.0;
 }
 
 int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b)
 {
-    /* A lane that found an equator point after some cadence samples:
-     * whether a particle has none is known only now, so its rows go (the block's events
-     * are out->e[ev_begin..n), in order). */
-    if (o->opts.sample_dt > 0 && o->out) {
-        struct gcp_events *ev = o->out;
-        int64_t w = o->ev_begin;
-        for (int64_t k = o->ev_begin; k < ev->n; k++) {
-            const struct gcp_event *e = &ev->e[k];
-            const int64_t li = e->id - o->id0;
-            const int drop = e->kind == GCP_EVENT_SAMPLE && li >= 0 && (size_t)li < o->nlanes &&
-                             o->lane[li].had_eq;
-            if (!drop) ev->e[w++] = *e;
-        }
-        ev->n = w;
-    }
     for (size_t i = 0; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
         if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
-        L->active = 0;
     }
+    /* rows the lane's other rows replace; the reasons for what is missing */
+    if (o->out) gcp_obs_finish(o, b);
+    for (size_t i = 0; i < b->n; i++) o->lane[b->index[i]].active = 0;
     const int bad = o->nomem;
     o->nomem = 0;
     return bad ? GCP_ERR_NOMEM : 0;
-}
-
-/* ---- loss-cone classification ------------------------------------------ */
-
-double gcp_dipole_loss_cone(double L, double r_atm)
-{
-    const double RE = GCP_EARTH_RADIUS;
-    const double c2 = r_atm / (L * RE); /* cos^2 of the foot latitude */
-    if (!(c2 > 0) || c2 >= 1.0) return NAN;
-    const double s2 = 1.0 - c2;
-    const double a = RE / r_atm;
-    const double bfoot = a * a * a * sqrt(1.0 + 3.0 * s2); /* B_foot / B0 */
-    const double beq = 1.0 / (L * L * L);                  /* B_eq / B0 */
-    return asin(sqrt(beq / bfoot));
-}
-
-int gcp_dipole_classify(const struct gcp_field *f, double q, double m, const double x[3],
-                        const double u[3], double ppar, double mu, double *L, double *alpha_eq,
-                        double *alpha_lc)
-{
-    *L = *alpha_eq = *alpha_lc = NAN;
-    if (!f || !(gcp_field_caps(f) & GCP_CAP_DIPOLE_L)) return GCP_ERR_STATE;
-    double X[3], pp = ppar, mm = mu, p2;
-    if (u) {
-        if (gcp_gc_from_fo(f, 0.0, q, m, x, u, X, &pp, &mm)) return GCP_ERR_STATE;
-        p2 = m * m * dot3(u, u);
-    } else {
-        memcpy(X, x, sizeof X);
-    }
-    struct gcp_field_sample s = {.need = GCP_NEED_B};
-    if (gcp_field_eval(f, 0.0, X, &s)) return GCP_ERR_STATE;
-    const double B = sqrt(dot3(s.B, s.B));
-    if (!u) p2 = pp * pp + 2.0 * m * mm * B;
-    const double r = sqrt(dot3(X, X));
-    const double cl2 = 1.0 - X[2] * X[2] / (r * r);
-    const double B0 = gcp_observer_reference_B0(f);
-    *L = r / (GCP_EARTH_RADIUS * cl2);
-    const double Beq = B0 / (*L * *L * *L);
-    const double sin2 = p2 > 0 ? 2.0 * m * mm / p2 * Beq : NAN; /* sin^2 a B_eq / B */
-    *alpha_eq = asin(sqrt(fmin(fmax(sin2, 0.0), 1.0)));
-    *alpha_lc = f->r_inner > 0 ? gcp_dipole_loss_cone(*L, f->r_inner) : 0.0;
-    (void)B;
-    return 0;
 }

@@ -20,6 +20,7 @@
 #include <hdf5.h>
 
 #include "output_priv.h"
+#include "output_events_priv.h"
 
 static void write_rows(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
                        hsize_t d1, hsize_t d2, const void *data)
@@ -156,217 +157,24 @@ static void write_trajectories(struct writer *w)
     H5Gclose(g);
 }
 
-/* ---- event tables (the /invariants tables, /losses) ------------------------------
- * A rank holds a variable number of events per particle.  The file keeps
- * them sorted by (id, t) whatever the rank count: the per-particle counts
- * of one table are summed over ranks (Allreduce of an N-vector), their
- * prefix sum gives each particle's first row, and each rank writes its rows
- * there (runs of consecutive rows, one hyperslab each) in one collective
- * write per column.  The rank's events are already sorted (id, kind, t). */
-struct ev_sel {
-    int64_t M;         /* rows in the file */
-    int64_t n;         /* rows of this rank */
-    int64_t *idx;      /* this rank's events of the table (indices into r->ev.e) */
-    int64_t *row;      /* their file rows (increasing) */
-};
-
-static int ev_select(struct writer *w, int kind, MPI_Comm comm, struct ev_sel *sel)
+/* The event tables (output_events.c) with this writer's file, transfer and rows. */
+static struct gcp_ev_writer ev_writer(const struct writer *w)
 {
-    const struct gcp_results *r = w->r;
-    const int64_t N = w->total;
-    memset(sel, 0, sizeof *sel);
-    int64_t *cnt = calloc((size_t)(N ? N : 1), sizeof *cnt);
-    sel->idx = malloc((size_t)(r->ev.n ? r->ev.n : 1) * sizeof *sel->idx);
-    sel->row = malloc((size_t)(r->ev.n ? r->ev.n : 1) * sizeof *sel->row);
-    int bad = !cnt || !sel->idx || !sel->row;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (bad) {
-        free(cnt);
-        return -1;
-    }
-    for (int64_t k = 0; k < r->ev.n; k++) {
-        const struct gcp_event *e = &r->ev.e[k];
-        if (e->kind != kind || e->id < 0 || e->id >= N) continue;
-        sel->idx[sel->n++] = k;
-        cnt[e->id]++;
-    }
-    MPI_Allreduce(MPI_IN_PLACE, cnt, (int)N, MPI_INT64_T, MPI_SUM, comm);
-    /* cnt -> first row of each particle */
-    int64_t acc = 0;
-    for (int64_t i = 0; i < N; i++) {
-        const int64_t c = cnt[i];
-        cnt[i] = acc;
-        acc += c;
-    }
-    sel->M = acc;
-    for (int64_t j = 0; j < sel->n; j++) sel->row[j] = cnt[r->ev.e[sel->idx[j]].id]++;
-    free(cnt);
-    return 0;
-}
-
-static void ev_sel_free(struct ev_sel *sel)
-{
-    free(sel->idx);
-    free(sel->row);
-}
-
-/* Dataset `name` of shape {M, d1, d2} (rank 1..3): row j of this rank gets
- * per_row values of `data` (rank's rows contiguous, in order). */
-static void write_ev_col(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
-                         hsize_t d1, hsize_t d2, const struct ev_sel *sel, const void *data,
-                         const char *units)
-{
-    hsize_t dims[3] = {(hsize_t)sel->M, d1, d2};
-    hid_t fspace = H5Screate_simple(rank, dims, NULL);
-    hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    H5Sselect_none(fspace);
-    int64_t k = 0;
-    while (k < sel->n) {
-        int64_t e = k + 1;
-        while (e < sel->n && sel->row[e] == sel->row[e - 1] + 1) e++;
-        hsize_t start[3] = {(hsize_t)sel->row[k], 0, 0};
-        hsize_t count[3] = {(hsize_t)(e - k), rank > 1 ? d1 : 1, rank > 2 ? d2 : 1};
-        H5Sselect_hyperslab(fspace, H5S_SELECT_OR, start, NULL, count, NULL);
-        k = e;
-    }
-    const hsize_t per_row = (rank > 1 ? d1 : 1) * (rank > 2 ? d2 : 1);
-    hsize_t mdims = (hsize_t)sel->n * per_row, one = 1;
-    hid_t mspace = H5Screate_simple(1, mdims ? &mdims : &one, NULL);
-    if (!mdims) H5Sselect_none(mspace);
-    /* an empty table: nothing to write (every rank knows M) */
-    if (dset < 0 || (sel->M && H5Dwrite(dset, type, mspace, fspace, w->dxpl, data) < 0)) w->bad = 1;
-    if (dset >= 0 && units) attr_str(w, dset, "units", units);
-    H5Sclose(mspace);
-    H5Sclose(fspace);
-    if (dset >= 0) H5Dclose(dset);
-}
-
-/* One table: id, t, then the named value slots (count values from slot). */
-struct ev_col {
-    const char *name;
-    int slot, rank;     /* first value slot; dataset rank (1: (M), 2: (M,d1), 3: (M,d1,d2)) */
-    hsize_t d1, d2;
-    const char *units;
-};
-
-static void write_ev_table(struct writer *w, hid_t parent, const char *name, int kind,
-                           const struct ev_col *cols, size_t ncols, int with_status,
-                           MPI_Comm comm)
-{
-    const struct gcp_results *r = w->r;
-    struct ev_sel sel;
-    if (ev_select(w, kind, comm, &sel)) {
-        w->bad = 1;
-        return;
-    }
-    hid_t g = group(w, parent, name);
-    const size_t n = (size_t)(sel.n ? sel.n : 1);
-    int64_t *id = malloc(n * sizeof *id);
-    int32_t *st = malloc(n * sizeof *st);
-    double *t = malloc(n * sizeof *t);
-    double *v = malloc(n * GCP_EVENT_NV * sizeof *v);
-    int bad = !id || !st || !t || !v;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (!bad) {
-        for (int64_t j = 0; j < sel.n; j++) {
-            const struct gcp_event *e = &r->ev.e[sel.idx[j]];
-            id[j] = e->id, st[j] = e->status, t[j] = e->t;
-        }
-        write_ev_col(w, g, "id", H5T_NATIVE_INT64, 1, 0, 0, &sel, id, NULL);
-        write_ev_col(w, g, "t", H5T_NATIVE_DOUBLE, 1, 0, 0, &sel, t, "s");
-        if (with_status) write_ev_col(w, g, "status", H5T_NATIVE_INT32, 1, 0, 0, &sel, st, NULL);
-        for (size_t c = 0; c < ncols; c++) {
-            const size_t per = (cols[c].rank > 1 ? cols[c].d1 : 1) * (cols[c].rank > 2 ? cols[c].d2 : 1);
-            for (int64_t j = 0; j < sel.n; j++)
-                memcpy(&v[(size_t)j * per], &r->ev.e[sel.idx[j]].v[cols[c].slot], per * sizeof *v);
-            write_ev_col(w, g, cols[c].name, H5T_NATIVE_DOUBLE, cols[c].rank, cols[c].d1,
-                         cols[c].d2, &sel, v, cols[c].units);
-        }
-    } else {
-        w->bad = 1;
-    }
-    free(id);
-    free(st);
-    free(t);
-    free(v);
-    ev_sel_free(&sel);
-    H5Gclose(g);
+    return (struct gcp_ev_writer){w->file, w->dxpl, w->r, w->total, 0};
 }
 
 static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm comm)
 {
     const unsigned inv = sc->invariants, evt = sc->events;
-    const int bounce = (inv & (GCP_INV_J | GCP_INV_K)) || (evt & GCP_EVT_BOUNCE);
-    const int drift = (inv & GCP_INV_L) || (evt & GCP_EVT_DRIFT);
-    if (bounce || drift || (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI))) {
-        hid_t g = group(w, w->file, "invariants");
-        /* when the events come, and when they do not (issue 13) */
-        attr_str(w, g, "sampling",
-                 "mu, energy, pphi: at each equator point (the minimum of |B| between two "
-                 "mirror points); bounce (J, K): between two mirror points of the same kind; "
-                 "drift (L*, Phi): per turn of the equator points' azimuth. A particle that "
-                 "never mirrors (a passing orbit, a uniform field) gets none of these events; "
-                 "if mu, energy or pphi is asked, it gets rows in /invariants/samples "
-                 "at t0 + k * 64 dt (k = 1, 2, ...; dt its population's step), interpolated "
-                 "linearly between guiding-centre samples; a particle with an equator point "
-                 "gets no samples row, one without gets only these");
-        if (bounce) {
-            static const struct ev_col c[] = {
-                {"period", GCP_BOUNCE_PERIOD, 1, 0, 0, "s"},
-                {"J", GCP_BOUNCE_J, 1, 0, 0, "kg m^2/s"},
-                {"K", GCP_BOUNCE_K, 1, 0, 0, "T^0.5 m"},
-                {"mirror_lat", GCP_BOUNCE_LAT, 2, 2, 0, "rad"},
-                {"mirror_B", GCP_BOUNCE_BM, 2, 2, 0, "T"},
-                {"mirror_x", GCP_BOUNCE_X, 3, 2, 3, "m"},
-                {"mu", GCP_BOUNCE_MU, 1, 0, 0, "J/T"}};
-            write_ev_table(w, g, "bounce", GCP_EVENT_BOUNCE, c, sizeof c / sizeof c[0], 0, comm);
-        }
-        if (drift) {
-            static const struct ev_col c[] = {{"period", 0, 1, 0, 0, "s"},
-                                              {"Lstar", 1, 1, 0, 0, "1"},
-                                              {"Phi", 2, 1, 0, 0, "T m^2"}};
-            write_ev_table(w, g, "drift", GCP_EVENT_DRIFT, c, 3, 0, comm);
-            /* say why a column is NaN throughout (issue 13) */
-            if (strcmp(sc->field_model, "igrf") == 0) {
-                hid_t gd = H5Gopen2(g, "drift", H5P_DEFAULT);
-                if (gd >= 0) {
-                    attr_str(w, gd, "Lstar_undefined",
-                             "Lstar and Phi are NaN: Phi = |oint A.dl| needs the field's vector "
-                             "potential, which the igrf model does not give");
-                    H5Gclose(gd);
-                }
-            }
-        }
-        if (inv & GCP_INV_MU) {
-            static const struct ev_col c[] = {{"mu", 0, 1, 0, 0, "J/T"}};
-            write_ev_table(w, g, "mu", GCP_EVENT_MU, c, 1, 0, comm);
-        }
-        if (inv & GCP_INV_ENERGY) {
-            static const struct ev_col c[] = {{"energy", 0, 1, 0, 0, "J"}};
-            write_ev_table(w, g, "energy", GCP_EVENT_ENERGY, c, 1, 0, comm);
-        }
-        if (inv & GCP_INV_PPHI) {
-            static const struct ev_col c[] = {{"pphi", 0, 1, 0, 0, "kg m^2/s"}};
-            write_ev_table(w, g, "pphi", GCP_EVENT_PPHI, c, 1, 0, comm);
-        }
-        if (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI)) {
-            /* particles with no equator point, on a time cadence: the asked columns */
-            static const struct ev_col all[] = {{"mu", 0, 1, 0, 0, "J/T"},
-                                                {"energy", 1, 1, 0, 0, "J"},
-                                                {"pphi", 2, 1, 0, 0, "kg m^2/s"}};
-            static const unsigned bit[] = {GCP_INV_MU, GCP_INV_ENERGY, GCP_INV_PPHI};
-            struct ev_col c[3];
-            size_t nc = 0;
-            for (size_t k = 0; k < 3; k++)
-                if (inv & bit[k]) c[nc++] = all[k];
-            write_ev_table(w, g, "samples", GCP_EVENT_SAMPLE, c, nc, 0, comm);
-        }
-        H5Gclose(g);
-    }
+    struct gcp_ev_writer ew = ev_writer(w);
+    if (inv || (evt & (GCP_EVT_BOUNCE | GCP_EVT_DRIFT))) gcp_output_invariants(&ew, sc, comm);
+    w->bad |= ew.bad;
     if (evt & GCP_EVT_LOSS) {
-        static const struct ev_col c[] = {{"x", 0, 2, 3, 0, "m"}};
+        static const struct gcp_ev_col c[] = {{"x", 0, 2, 3, 0, "m", 0}};
         /* /losses: the table itself, plus the start classification per particle */
-        write_ev_table(w, w->file, "losses", GCP_EVENT_LOSS, c, 1, 1, comm);
+        struct gcp_ev_writer el = ev_writer(w);
+        gcp_output_event_table(&el, w->file, "losses", GCP_EVENT_LOSS, c, 1, 1, comm);
+        w->bad |= el.bad;
         hid_t g = H5Gopen2(w->file, "losses", H5P_DEFAULT);
         if (g < 0) {
             w->bad = 1;
@@ -391,11 +199,13 @@ static void write_hybrid(struct writer *w, MPI_Comm comm)
     write_rows(w, g, "switches", H5T_NATIVE_INT32, 1, 0, 0, r->hy_switches);
     write_rows(w, g, "t_gc", H5T_NATIVE_DOUBLE, 1, 0, 0, r->hy_t_gc);
     write_rows(w, g, "t_fo", H5T_NATIVE_DOUBLE, 1, 0, 0, r->hy_t_fo);
-    static const struct ev_col c[] = {{"X", 0, 2, 3, 0, "m"},
-                                      {"eps", 3, 1, 0, 0, "1"},
-                                      {"direction", 4, 1, 0, 0, "+1 to full orbit, -1 to guiding centre"},
-                                      {"dp2", 5, 1, 0, 0, "1"}};
-    write_ev_table(w, g, "events", GCP_EVENT_SWITCH, c, sizeof c / sizeof c[0], 0, comm);
+    static const struct gcp_ev_col c[] = {{"X", 0, 2, 3, 0, "m", 0},
+                                      {"eps", 3, 1, 0, 0, "1", 0},
+                                      {"direction", 4, 1, 0, 0, "+1 to full orbit, -1 to guiding centre", 0},
+                                      {"dp2", 5, 1, 0, 0, "1", 0}};
+    struct gcp_ev_writer ew = ev_writer(w);
+    gcp_output_event_table(&ew, g, "events", GCP_EVENT_SWITCH, c, sizeof c / sizeof c[0], 0, comm);
+    w->bad |= ew.bad;
     H5Gclose(g);
 }
 
@@ -535,6 +345,9 @@ static void write_units(struct writer *w)
         {"trajectories/ppar", "kg m/s"}, {"trajectories/count", "1"},
         {"invariants/bounce/id", "1"}, {"invariants/drift/id", "1"}, {"invariants/mu/id", "1"},
         {"invariants/energy/id", "1"}, {"invariants/pphi/id", "1"}, {"invariants/samples/id", "1"},
+        {"invariants/undefined/id", "1"}, {"invariants/undefined/bounce", "1"},
+        {"invariants/undefined/equator", "1"}, {"invariants/undefined/drift", "1"},
+        {"invariants/undefined/Lstar", "1"},
         {"losses/id", "1"}, {"losses/status", "1"}, {"losses/initial/L", "1"},
         {"losses/initial/alpha_eq", "rad"}, {"losses/initial/alpha_lc", "rad"},
         {"timing/cpu_seconds", "s"}, {"timing/steps", "1"}, {"timing/rank_cpu_seconds", "s"},

@@ -36,7 +36,8 @@ int gcp_hybrid_create(struct gcp_hybrid **out, size_t nlanes, const struct gcp_h
     h->lane = calloc(m, sizeof *h->lane);
     h->ord = calloc(m, sizeof *h->ord);
     h->nsub = calloc(m, sizeof *h->nsub);
-    if (!h->lane || !h->ord || !h->nsub || gcp_block_alloc(&h->sb, m)) {
+    h->vidx = calloc(m, sizeof *h->vidx);
+    if (!h->lane || !h->ord || !h->nsub || !h->vidx || gcp_block_alloc(&h->sb, m)) {
         gcp_hybrid_free(h);
         return GCP_ERR_NOMEM;
     }
@@ -50,6 +51,7 @@ void gcp_hybrid_free(struct gcp_hybrid *h)
     free(h->lane);
     free(h->ord);
     free(h->nsub);
+    free(h->vidx);
     free(h->sw);
     gcp_block_free(&h->sb);
     free(h);
@@ -129,6 +131,48 @@ static size_t scatter(struct gcp_block *b, const struct gcp_block *s, size_t j)
     return i;
 }
 
+/* ---- the observer ---------------------------------------------------------- */
+
+void gcp_hybrid_set_observer(struct gcp_hybrid *h, const struct gcp_hybrid_observer *obs)
+{
+    h->obs = obs ? *obs : (struct gcp_hybrid_observer){NULL, NULL};
+}
+
+/* Sampler of a sub-block push: the observer sees the sub-block with the
+ * outer lanes' stable indices (s->index[j] is the outer lane). */
+struct fwd_ctx {
+    struct gcp_hybrid *h;
+    const struct gcp_block *b; /* the outer block */
+    int mode;
+    int any_avg;               /* FO: some lane has an averaging window open */
+    struct gcp_hybrid_fo_ctx fc;
+};
+
+static void forward(const struct gcp_block *s, double t, void *vctx)
+{
+    struct fwd_ctx *c = vctx;
+    if (c->any_avg) gcp_hybrid_fo_sample(s, t, &c->fc);
+    if (!c->h->obs.fn) return;
+    struct gcp_block v = *s;
+    for (size_t j = 0; j < s->n_active; j++) c->h->vidx[j] = c->b->index[s->index[j]];
+    v.index = c->h->vidx;
+    c->h->obs.fn(&v, t, c->mode, c->h->obs.ctx);
+}
+
+void gcp_hybrid_observe(struct gcp_hybrid *h, const struct gcp_block *b, double t)
+{
+    if (!h->obs.fn) return;
+    for (int mode = GCP_MODE_GC; mode <= GCP_MODE_FO; mode++) {
+        size_t m = 0;
+        for (size_t i = 0; i < b->n_active; i++)
+            if (!b->status[i] && lane_of(h, b, i)->mode == mode) h->ord[m++] = i;
+        if (!m) continue;
+        gather(&h->sb, b, h->ord, m);
+        struct fwd_ctx c = {.h = h, .b = b, .mode = mode};
+        forward(&h->sb, t, &c);
+    }
+}
+
 /* ---- switches ------------------------------------------------------------ */
 
 /* ---- the two kinds of push ------------------------------------------------ */
@@ -149,7 +193,9 @@ static void push_gc(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_
     const double t0 = grid_t(o, k0);
     struct gcp_push_opts go = {.t0 = t0, .dt = o->dt, .nsteps = K1 - k0,
                                .tolerance = o->tolerance, .adiabaticity_max = h->o.to_fo};
-    h->o.gc->advance(s, f, h->o.gc, &go, NULL);
+    struct fwd_ctx fw = {.h = h, .b = b, .mode = GCP_MODE_GC};
+    const struct gcp_sampler smp = {1, forward, &fw};
+    h->o.gc->advance(s, f, h->o.gc, &go, h->obs.fn ? &smp : NULL);
     const double t1 = grid_t(o, K1);
     for (size_t j = 0; j < m; j++) {
         const size_t i = scatter(b, s, j);
@@ -233,9 +279,11 @@ static void push_fo(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_
         for (size_t a = g0; a < g1; a++) any_avg |= lane_of(h, b, h->ord[a])->avg;
         struct gcp_block *s = &h->sb;
         gather(s, b, h->ord + g0, g1 - g0);
-        struct gcp_hybrid_fo_ctx fc = {h, b, f};
-        const struct gcp_sampler smp = {1, gcp_hybrid_fo_sample, &fc};
-        gcp_block_advance_fo(s, f, h->o.fo, tl, (t1 - tl) / (double)ns, ns, any_avg ? &smp : NULL);
+        struct fwd_ctx fw = {.h = h, .b = b, .mode = GCP_MODE_FO, .any_avg = any_avg,
+                             .fc = {h, b, f}};
+        const struct gcp_sampler smp = {1, forward, &fw};
+        gcp_block_advance_fo(s, f, h->o.fo, tl, (t1 - tl) / (double)ns, ns,
+                             any_avg || h->obs.fn ? &smp : NULL);
         for (size_t j = 0; j < g1 - g0; j++) {
             const size_t i = scatter(b, s, j);
             struct hlane *L = lane_of(h, b, i);

@@ -35,6 +35,8 @@ struct gcp_hybrid {
     int64_t *nsub;                  /* scratch: FO steps per chunk of each outer lane */
     struct gcp_hybrid_switch *sw;
     size_t nsw, capsw;
+    struct gcp_hybrid_observer obs; /* per-step observer (fn NULL: none) */
+    size_t *vidx;                   /* scratch: stable indices of a sub-block's lanes */
     int nomem;
 };
 

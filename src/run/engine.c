@@ -210,6 +210,10 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
     }
     struct traj_ctx tc = {res, row0, 0, hy};
     struct gcp_sampler sampler = {P->trajectory_every, record, &tc};
+    /* method = hybrid: the observer sees each mode's steps through the
+     * hybrid's own hook (gcp_hybrid_set_observer), the trajectory keeps
+     * its sampler */
+    const struct gcp_sampler traj_sampler = sampler;
     struct multi_ctx mc = {obs, e->watch, S ? P->trajectory_every : 0, 0, &tc};
     if (obs || e->watch) sampler = (struct gcp_sampler){1, multi_sample, &mc};
     gcp_block_start(b, s->field, t0);
@@ -217,9 +221,14 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
     if (S) record(b, t0, &tc);
     const int64_t events_before = res->ev.n;
     if (obs) {
-        /* samples of particles with no equator point: every 64 steps of this population */
-        gcp_observer_set_sample_dt(obs, GCP_OBSERVER_SAMPLE_STEPS * P->dt);
+        /* cadence samples and the stream contour: every sample_every steps of this population */
+        gcp_observer_set_sample_dt(obs, (double)s->sample_every * P->dt);
         gcp_observer_begin(obs, b, t0, e->first, &res->ev);
+        if (hy) {
+            const struct gcp_hybrid_observer ho = {gcp_observer_sample_mode, obs};
+            gcp_hybrid_set_observer(hy, &ho);
+            gcp_hybrid_observe(hy, b, t0);
+        }
     }
     struct gcp_push_opts opts = {.t0 = t0,
                                  .dt = P->dt,
@@ -241,7 +250,7 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
         }
         opts.t0 = t0 + (double)done * P->dt;
         opts.nsteps = P->nsteps - done < slice ? P->nsteps - done : slice;
-        if (hy) gcp_hybrid_advance(hy, b, s->field, &opts, S ? &sampler : NULL);
+        if (hy) gcp_hybrid_advance(hy, b, s->field, &opts, S ? &traj_sampler : NULL);
         else s->pusher->advance(b, s->field, s->pusher, &opts, smp);
         done += opts.nsteps;
     }

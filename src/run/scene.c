@@ -542,19 +542,18 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
     if ((rc = read_state_files(sc, rf, rd, err))) return rc;
 
     s = gcp_run_file_section(rf, "diagnostics");
+    sc->sample_every = GCP_OBSERVER_SAMPLE_STEPS;
     if (s) {
         static const char *const inv_names[] = {"mu", "J", "K", "L", "energy", "pphi", NULL};
         static const char *const evt_names[] = {"bounce", "drift", "loss", NULL};
         if ((rc = parse_words(s, "invariants", inv_names, &sc->invariants, err)) < 0 ||
             (rc = parse_words(s, "events", evt_names, &sc->events, err)) < 0)
             return rc;
-        if ((rc = gcp_section_check_unused(s, "invariants events", err))) return rc;
-        if (sc->hybrid && (sc->invariants || sc->events))
-            return gcp_section_error(s, sc->invariants ? "invariants" : "events", err,
-                                     GCP_ERR_VALUE,
-                                     "method = hybrid does not track invariants or events yet "
-                                     "(the observer across switches is future work): leave "
-                                     "[diagnostics] out");
+        /* the cadence of /invariants/samples and of the stream's drift contour
+         * (invariants.h, sample_dt), in steps of each population's dt */
+        if ((rc = get_count(s, "sample_every", 0, 1, 1000000000, &sc->sample_every, err)) < 0)
+            return rc;
+        if ((rc = gcp_section_check_unused(s, "invariants events sample_every", err))) return rc;
     }
 
     s = gcp_run_file_section(rf, "output");

@@ -180,6 +180,23 @@ gc gc-midpoint-pphi | igrf > case.run
 expect midpoint-in-igrf "method 'gc-midpoint-pphi' cannot run in the igrf field: the field model has no analytic vector potential"
 gc gc-vi > case.run
 expect gc-vi-renamed "case.run:18: \[integrator\] method: gc-vi is gone: it was not a variational integrator; use gc-gl2 or gc-gl4"
+# [diagnostics] sample_every: a whole number of steps (issue 13)
+diag() { good | sed "s/^\[output\]/[diagnostics]\ninvariants = mu\nsample_every = $1\n\n[output]/"; }
+diag 0 > case.run;      expect sample-every-zero 'case.run:23: \[diagnostics\] sample_every: must be in 1 .. 1000000000, got 0'
+diag 2.5 > case.run;    expect sample-every-fraction "case.run:23: \[diagnostics\] sample_every: expected a whole number, got '2.5'"
+diag '10 s' > case.run; expect sample-every-unit "case.run:23: \[diagnostics\] sample_every: expected a whole number, got '10 s'"
+diag 16 > case.run
+"$GCPUSH" --quiet case.run || die "sample_every = 16 refused"
+# gyration in a uniform field mirrors nowhere: its mu rows come every 16 of its 100 steps, up to
+# its last gyro-averaged sample (the middle of its last whole gyration, 95 steps): 5 rows
+"$PY" - out.h5 <<'PY' || die "sample_every = 16: rows not at 16 dt"
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+s, dt = f["invariants/samples"], f["particles/dt"][0]
+assert np.array_equal(s["id"][:], np.repeat([0, 1, 2], 5)), s["id"][:]
+assert np.allclose(s["t"][:], np.tile(16 * dt * np.arange(1, 6), 3), rtol=1e-12), s["t"][:] / dt
+PY
+rm -f out.h5
 
 # --check validates without writing anything
 good > case.run

@@ -31,6 +31,9 @@ switch_to_fo = 0.1
 switch_to_gc = 0.05
 fo_dt        = 0.05 gyro
 dt           = 0.01 bounce
+[diagnostics]
+invariants = mu K L energy
+events     = bounce drift loss
 [output]
 file       = OUT
 trajectory = 50 samples
@@ -59,9 +62,6 @@ sed "s/^fo_dt        = 0.05 gyro/adiabaticity = 0.1/" base.run > case.run
 bad adiabaticity "case.run:18: \[integrator\] adiabaticity: method = hybrid switches at switch_to_fo"
 sed "s/^method       = hybrid/method       = gc-rk4/" base.run > case.run
 bad keys-without-hybrid "case.run:14: \[integrator\] gc: unknown key"
-printf '[diagnostics]\ninvariants = mu\n' >> base.run
-cp base.run case.run
-bad diagnostics "case.run:24: \[diagnostics\] invariants: method = hybrid does not track invariants"
 
 # ---- a run: layout and consistency ----
 sed "s/OUT/h1.h5/" hy.run > h1.run
@@ -117,17 +117,58 @@ for i in range(N):
     assert np.all(np.isfinite(u[i, :c][tm[i, :c] == 1]))
 print("switching particles: %d of %d, switches %d, full-orbit share %.3f"
       % (np.count_nonzero(sw), N, sw.sum(), tfo.sum() / (tfo + tgc).sum()))
+# the observer across switches (issue 14): every /invariants table has a mode
+# column; rows from full-orbit stretches (1) belong to particles that switched
+inv = f["invariants"]
+for k in ("bounce", "drift", "mu", "energy"):
+    m, i = inv[k]["mode"][:], inv[k]["id"][:]
+    assert np.all(np.isin(m, (0, 1))), k
+    assert np.all(sw[i[m == 1]] > 0) or np.all(tfo[i[m == 1]] > 0), k
+assert np.count_nonzero(inv["mu"]["mode"][:] == 1) > 0, "no mu row from a full-orbit stretch"
+assert np.count_nonzero(inv["mu"]["mode"][:] == 0) > 0
+PY
+
+# an adiabatic particle's observer output is the plain guiding-centre run's,
+# bit for bit: the same GC calls with the same per-step sampler (hybrid.h).
+# (Without trajectories: the hybrid cuts its pushes at trajectory samples,
+# and its step times t_K + j dt then differ from t0 + k dt by an ulp.)
+sed "s/OUT/hn.h5/; /^trajectory/d" hy.run > hn.run
+sed "s/OUT/gc.h5/; /^trajectory/d; s/^method       = hybrid/method       = gc-rk4/; /^gc  /d; /^fo  /d; /^switch_to/d; /^fo_dt/d" hy.run > gc.run
+"$GCPUSH" --quiet hn.run || die "hybrid run without trajectories failed"
+"$GCPUSH" --quiet gc.run || die "plain gc-rk4 run failed"
+"$PY" - hn.h5 gc.h5 <<'PY' || die "hybrid observer differs from the plain GC run's on adiabatic particles"
+import sys
+import h5py, numpy as np
+h, g = h5py.File(sys.argv[1], "r"), h5py.File(sys.argv[2], "r")
+t_fo = h["hybrid/t_fo"][:]
+st = g["particles/final/status"][:].astype(int)
+keep = np.flatnonzero((t_fo == 0) & (st == 0))  # GC all along in both runs
+assert len(keep) >= 20, len(keep)
+for k in ("bounce", "drift", "mu", "energy"):
+    hi, gi = h["invariants"][k]["id"][:], g["invariants"][k]["id"][:]
+    for col in [c for c in g["invariants"][k] if c not in ("id",)]:
+        a = h["invariants"][k][col][:][np.isin(hi, keep)]
+        b = g["invariants"][k][col][:][np.isin(gi, keep)]
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), (k, col, a.shape, b.shape)
+print("adiabatic particles: %d with identical /invariants rows" % len(keep))
 PY
 
 # the orbit plot marks the full-orbit stretches (analysis/gcpush_h5.py reads hybrid files)
 "$PY" "$ROOT/analysis/plot_orbits.py" h1.h5 -o h1.png --max 12 > plot.txt 2>&1 ||
     die "plot_orbits.py on a hybrid file: $(tail -3 plot.txt)"
 [ -s h1.png ] || die "plot_orbits.py wrote no picture"
+# ... and invariant_drift.py follows mu across the switches (issue 14)
+"$PY" "$ROOT/analysis/invariant_drift.py" h1.h5 -o h1inv.png > inv.txt 2>&1 ||
+    die "invariant_drift.py on a hybrid file: $(tail -3 inv.txt)"
+grep -q "^hybrid: mu rows from full-orbit stretches [1-9]" inv.txt ||
+    die "invariant_drift.py: no full-orbit mu rows: $(cat inv.txt)"
+grep -q "^hybrid: largest mu jump of particle" inv.txt || die "invariant_drift.py: no mu jumps"
+[ -s h1inv.png ] || die "invariant_drift.py wrote no picture"
 
 # ---- 1 and 3 ranks: the same data ----
 sed "s/OUT/h3.h5/" hy.run > h3.run
 $MPIRUN -np 3 "$GCPUSH" --quiet h3.run || die "hybrid run on 3 ranks failed"
-for g in /particles /trajectories /hybrid; do
+for g in /particles /trajectories /hybrid /invariants /losses; do
     h5diff h1.h5 h3.h5 $g $g > diff.txt 2>&1 || die "1 and 3 ranks differ in $g: $(head -5 diff.txt)"
 done
 # ---- SIGTERM halfway, then --restart on 2 ranks: the uninterrupted file ----
@@ -143,7 +184,7 @@ while ! ls long.h5.ckpt.* > /dev/null 2>&1 && [ $i -lt 600 ]; do sleep 0.05; i=$
 kill -TERM $pid; wait $pid; rc=$?
 [ $rc = 3 ] || die "SIGTERM: exit status $rc, not 3 ($(cat term.txt))"
 $MPIRUN -np 2 "$GCPUSH" --quiet --restart long.h5 || die "restart failed"
-for g in /particles /trajectories /hybrid; do
+for g in /particles /trajectories /hybrid /invariants /losses; do
     h5diff ref.h5 long.h5 $g $g > diff.txt 2>&1 || die "restart differs in $g: $(head -5 diff.txt)"
 done
 echo "ok test_hybrid"

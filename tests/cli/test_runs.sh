@@ -98,7 +98,14 @@ RUN
 import sys, h5py
 f = h5py.File(sys.argv[1], "r")
 assert b"vector potential" in f["invariants/drift"].attrs["Lstar_undefined"]
-assert b"never mirrors" in f["invariants"].attrs["sampling"]
+assert b"no equator point" in f["invariants"].attrs["sampling"]
+# per particle, why (issue 13): an HDF5 enum column per quantity
+u = f["invariants/undefined"]
+names = {v: k for k, v in h5py.check_enum_dtype(u["Lstar"].dtype).items()}
+assert list(u["id"][:]) == [0, 1], u["id"][:]
+assert [names[v] for v in u["Lstar"][:]] == ["NO_POTENTIAL"] * 2, u["Lstar"][:]
+assert [names[v] for v in u["drift"][:]] == ["NO_TURN"] * 2, u["drift"][:]
+assert [names[v] for v in u["bounce"][:]] == ["NOT_ASKED"] * 2, u["bounce"][:]
 PYEOF
 # ... and sharply (issue 13): the first-order correction to mu at the start
 # is rho |grad B| / B = (rho / Lm)^2 = 8e-4 at the field minimum (grad B and

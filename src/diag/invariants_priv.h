@@ -1,0 +1,126 @@
+/* Private to the invariant observer (src/diag/invariants*.c): per-lane
+ * state and the helpers the files share.  Contract: gcpush/invariants.h. */
+#ifndef GCPUSH_INVARIANTS_PRIV_H
+#define GCPUSH_INVARIANTS_PRIV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gcpush/invariants.h"
+
+/* One guiding-centre stream sample. */
+struct gsample {
+    double t;     /* [s] */
+    double X[3];  /* [m] guiding centre */
+    double ppar;  /* [kg m/s] */
+    double mu;    /* [J/T] */
+    double B;     /* [T] |B(X)| */
+    double p2;    /* [kg^2 m^2/s^2] p^2 */
+};
+
+/* A point of a drift contour. */
+struct cpoint {
+    double t, phi, R, z; /* phi unwrapped along the contour */
+    double psi, AR, Az;  /* R A_phi [T m^2], A_R, A_z [T m] */
+};
+
+/* A drift contour in progress: points so far, the previous one, where the
+ * current turn began, oint A . dl of the turn so far. */
+struct contour {
+    int n;
+    struct cpoint prev;
+    double phi0, t0, acc;
+};
+
+struct lane {
+    int active, loss_done;
+    double xprev[3], tprev;
+    int32_t mode;         /* method = hybrid: the mode of the last sample (enum gcp_hybrid_mode) */
+    /* full orbit: the gyration in progress */
+    int g_init, g_left;   /* g_left: the gyroradius has been on the far side of e1 */
+    double rho_prev[3], g_e1[3], g_e2[3], g_t0, g_tprev;
+    double g_acc[6], g_prev[6]; /* X[3], ppar, mu, p2 */
+    /* stream */
+    int have_s1;
+    struct gsample s1;
+    /* half-bounce */
+    int half_valid;  /* began at a mirror point */
+    double J_acc;    /* int p_par v_par dt of the half so far */
+    double eq_Bmin;
+    int eq_need_next, eq_has_prev, eq_valid;
+    struct gsample e0, e1, e2;
+    /* bounce */
+    int nm;          /* mirror points of the bounce in progress (0: none yet) */
+    double tb0, Jb, mub;
+    double lat[2], Bm[2], xm[2][3];
+    /* drift: the contour of equator points, and the contour of the stream
+     * on the cadence (drift-phase crossings for lanes whose equator points
+     * make no turn: invariants_samples.c) */
+    struct contour ceq, cst;
+    /* what the push found (the /invariants/undefined reasons) */
+    int n_mirror, n_bounce, n_drift_eq, n_drift_st, psi_nan;
+    /* cadence samples (opts.sample_dt): the next grid index k of
+     * t0 + k sample_dt; had_eq: an equator point (mu, energy, p_phi rows)
+     * was found in this push.  The test is the equator point, not a mirror
+     * point: a full orbit at pitch 90 deg on a curved field's equator has
+     * p_par ~ 0 and its gyro-averaged sign flips (mirror points) without
+     * an equator point between them, and it too must get its samples. */
+    int had_eq;
+    int64_t s_k, d_k;   /* d_k: the stream contour's next grid index */
+};
+
+struct gcp_observer {
+    const struct gcp_field *f;
+    const struct gcp_pusher_type *p;
+    struct gcp_observer_opts opts;
+    int gc;           /* guiding-centre pusher */
+    int hybrid;       /* method = hybrid: the mode comes with each sample */
+    int stream;       /* any stream work at all */
+    int want_bounce, want_drift, want_eq;
+    double B0;        /* [T] reference for L* */
+    size_t nlanes;
+    struct lane *lane;
+    double *Bx, *By, *Bz; /* scratch: B at the lanes */
+    double *Xx, *Xy, *Xz, *Cx, *Cy, *Cz; /* full orbit: first-order guiding centre, B there */
+    int32_t *fst;
+    double q, m;
+    int64_t id0;
+    double t0;            /* the push's start (the cadence grid's origin) */
+    int64_t ev_begin;     /* out->n at gcp_observer_begin */
+    struct gcp_events *out;
+    int nomem;
+};
+
+static inline double gcp_obs_dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Appends e to the push's events, tagged with the lane's mode (non-loss
+ * events carry it in .status). */
+void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event *e);
+/* gamma m [kg] of momentum^2 p2. */
+double gcp_obs_gamma_m(const struct gcp_observer *o, double p2);
+/* Kinetic energy [J] of momentum^2 p2: p^2 c^2 / (E + m c^2), no cancellation. */
+double gcp_obs_energy(const struct gcp_observer *o, double p2);
+/* The next stream sample of a lane (invariants.c). */
+void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
+                           const struct gsample *s);
+/* Full orbit: one step into the gyro-average (invariants_fo.c). */
+void gcp_obs_fo_step(struct gcp_observer *o, struct lane *L, int64_t id, double t,
+                     const double v[6], const double rho[3], const double bx[3]);
+/* Contour quantities of a position (phi, R, psi = R A_phi, A_R, A_z). */
+void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
+                        double *R, double *psi, double *AR, double *Az);
+/* Adds point P to contour c; emits a drift event (v[3] = contour) per turn. */
+void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour *c, int64_t id,
+                         struct cpoint P, int which);
+double gcp_obs_wrap_pi(double a);
+/* The cadence work of stream sample s (samples rows, the stream contour),
+ * before s becomes L->s1 (invariants_samples.c). */
+void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s);
+/* After the push: drops the rows that the lane's other rows replace, adds
+ * the /invariants/undefined rows. */
+void gcp_obs_finish(struct gcp_observer *o, const struct gcp_block *b);
+
+#endif

@@ -1,0 +1,135 @@
+/* What the observer gives particles that do not bounce (issue 13; contract:
+ * gcpush/invariants.h):
+ *   - samples: mu, energy, p_phi at t0 + k sample_dt for a particle with no
+ *     equator point, linear in t between two stream samples (exact for the
+ *     constants they are meant to show; O(h^2) otherwise, h the stream
+ *     spacing: dt, or a gyration for full orbits);
+ *   - the stream's drift contour: the guiding centre at the same grid times
+ *     (linear in t), and wherever its azimuth moved by pi/4 since the last
+ *     point (no aliasing when the azimuth turns faster than the cadence), so the azimuth's turns -- drift-phase crossings,
+ *     independent of bounces -- give a drift period and Phi = |oint A . dl|
+ *     for a particle whose equator points make no turn (a full orbit at
+ *     pitch ~90 deg, whose gyro-averaged p_par flips sign with noise and
+ *     finds a |B| minimum only now and then; a passing orbit).  In an
+ *     axisymmetric field psi = R A_phi is constant on a field line, so the
+ *     contour need not lie on the equator for Phi = 2 pi psi; elsewhere it
+ *     is the flux through the guiding centre's own (non-bouncing) orbit;
+ *   - the reasons: per particle, why an asked quantity has no row. */
+#include <math.h>
+#include <string.h>
+
+#include "gcpush/gc.h"
+#include "gcpush/invariants.h"
+#include "gcpush/kernels.h"
+#include "gcpush/particles.h"
+#include "invariants_priv.h"
+
+/* The stream contour's point at time t (X linear between a and s). */
+static void stream_point(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *a,
+                         const struct gsample *s, double t)
+{
+    const double th = s->t > a->t ? (t - a->t) / (s->t - a->t) : 1.0;
+    double X[3];
+    for (int k = 0; k < 3; k++) X[k] = a->X[k] + th * (s->X[k] - a->X[k]);
+    struct cpoint P = {.t = t, .z = X[2]};
+    gcp_obs_contour_of(o, t, X, &P.phi, &P.R, &P.psi, &P.AR, &P.Az);
+    gcp_obs_drift_point(o, L, &L->cst, id, P, GCP_CONTOUR_STREAM);
+}
+
+void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s)
+{
+    const double T = o->opts.sample_dt;
+    const unsigned inv = o->opts.invariants;
+    const struct gsample *a = &L->s1;
+    /* once it has an equator point, its rows would be dropped at the end: none made */
+    if (T > 0 && !L->had_eq && (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI))) {
+        for (;;) {
+            /* t0 + k T, not a running sum: the grid does not drift with k */
+            const double tk = o->t0 + (double)L->s_k * T;
+            if (tk > s->t) break;
+            L->s_k++;
+            if (!L->have_s1 || tk <= a->t) continue; /* grid times before the first sample */
+            const double th = (tk - a->t) / (s->t - a->t);
+            struct gcp_event e = {.id = id, .kind = GCP_EVENT_SAMPLE, .t = tk};
+            e.v[0] = e.v[1] = e.v[2] = NAN;
+            if (inv & GCP_INV_MU) e.v[0] = a->mu + th * (s->mu - a->mu);
+            if (inv & GCP_INV_ENERGY) e.v[1] = gcp_obs_energy(o, a->p2 + th * (s->p2 - a->p2));
+            if (inv & GCP_INV_PPHI) {
+                double pa = NAN, pb = NAN;
+                gcp_gc_pphi(o->f, a->t, o->q, a->X, a->ppar, &pa);
+                gcp_gc_pphi(o->f, s->t, o->q, s->X, s->ppar, &pb);
+                e.v[2] = pa + th * (pb - pa);
+            }
+            gcp_obs_emit(o, L, &e);
+        }
+    }
+    /* the stream contour, until the equator contour has made a turn (its
+     * rows would be dropped then) */
+    if (!o->want_drift || L->n_drift_eq || !(T > 0)) return;
+    for (;;) {
+        const double tk = o->t0 + (double)L->d_k * T;
+        if (tk > s->t) break;
+        L->d_k++;
+        if (L->have_s1 && tk > a->t) stream_point(o, L, id, a, s, tk);
+    }
+    /* a fast azimuth (a tokamak transit, a drift faster than the cadence)
+     * would alias: a point wherever the azimuth moved by pi/4 since the last */
+    if (L->cst.n && L->cst.prev.t < s->t &&
+        fabs(gcp_obs_wrap_pi(atan2(s->X[1], s->X[0]) - L->cst.prev.phi)) > 0.25 * GCP_PI)
+        stream_point(o, L, id, s, s, s->t);
+}
+
+const char *gcp_undefined_name(int why)
+{
+    static const char *const names[GCP_UNDEF_COUNT] = {
+        "DEFINED", "NOT_ASKED", "NO_MIRROR", "NO_BOUNCE", "NO_EQUATOR", "NO_TURN", "NO_POTENTIAL"};
+    return why >= 0 && why < GCP_UNDEF_COUNT ? names[why] : "UNKNOWN";
+}
+
+void gcp_obs_finish(struct gcp_observer *o, const struct gcp_block *b)
+{
+    /* The rows the lane's other rows replace, known only now: cadence
+     * samples of a lane with an equator point, stream-contour drift rows of
+     * a lane whose equator contour made a turn (the block's events are
+     * out->e[ev_begin..n), in order). */
+    struct gcp_events *ev = o->out;
+    int64_t w = o->ev_begin;
+    for (int64_t k = o->ev_begin; k < ev->n; k++) {
+        const struct gcp_event *e = &ev->e[k];
+        const int64_t li = e->id - o->id0;
+        const struct lane *L = li >= 0 && (size_t)li < o->nlanes ? &o->lane[li] : NULL;
+        const int drop = L && ((e->kind == GCP_EVENT_SAMPLE && L->had_eq) ||
+                               (e->kind == GCP_EVENT_DRIFT && L->n_drift_eq &&
+                                e->v[GCP_DRIFT_CONTOUR] == GCP_CONTOUR_STREAM));
+        if (!drop) ev->e[w++] = *e;
+    }
+    ev->n = w;
+    /* why an asked quantity has no row */
+    const unsigned inv = o->opts.invariants;
+    const int want_mu = (inv & (GCP_INV_MU | GCP_INV_ENERGY | GCP_INV_PPHI)) != 0;
+    for (size_t i = 0; i < b->n; i++) {
+        const size_t li = b->index[i];
+        struct lane *L = &o->lane[li];
+        if (!L->active) continue;
+        struct gcp_event e = {.id = o->id0 + (int64_t)li, .kind = GCP_EVENT_UNDEFINED, .t = b->t[i]};
+        const int nomirror = L->n_mirror == 0;
+        const int drifted = L->n_drift_eq + L->n_drift_st > 0;
+        e.v[GCP_UNDEF_BOUNCE] = !o->want_bounce ? GCP_UNDEF_NOT_ASKED
+                                : L->n_bounce ? GCP_UNDEF_NONE
+                                : nomirror    ? GCP_UNDEF_NO_MIRROR
+                                              : GCP_UNDEF_NO_BOUNCE;
+        e.v[GCP_UNDEF_EQUATOR] = !want_mu ? GCP_UNDEF_NOT_ASKED
+                                 : L->had_eq ? GCP_UNDEF_NONE
+                                             : GCP_UNDEF_NO_EQUATOR;
+        e.v[GCP_UNDEF_DRIFT] = !o->want_drift ? GCP_UNDEF_NOT_ASKED
+                               : drifted      ? GCP_UNDEF_NONE
+                                              : GCP_UNDEF_NO_TURN;
+        e.v[GCP_UNDEF_LSTAR] = !o->want_drift ? GCP_UNDEF_NOT_ASKED
+                               : L->psi_nan   ? GCP_UNDEF_NO_POTENTIAL
+                               : drifted      ? GCP_UNDEF_NONE
+                                              : GCP_UNDEF_NO_TURN;
+        int any = 0;
+        for (int k = 0; k < 4; k++) any |= e.v[k] > GCP_UNDEF_NOT_ASKED;
+        if (any) gcp_obs_emit(o, L, &e);
+    }
+}
