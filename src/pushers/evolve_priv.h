@@ -114,6 +114,11 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
      * field); a full orbit was classified when its block was filled
      * (gcp_block_start) */
     size_t n = gc ? gcp_gc_block_begin(b, f, o) : b->n_active;
+    /* the same options check as a guiding centre's (gcp_gc_block_begin):
+     * dt = 0 would count steps that move nothing, a negative one push
+     * backwards, NaN or inf overwrite the state with non-finite values */
+    if (!gc && n && !(isfinite(o->dt) && o->dt > 0.0 && o->nsteps >= 0 && isfinite(o->t0)))
+        n = gcp_evolve_fail_all(b, n, o->t0, GCP_FAIL_BAD_OPTIONS);
     if (n == 0) return 0;
     const size_t sz = st->lane_size;
     const size_t wsz = st->work_size ? st->work_size(b->n) : 0;

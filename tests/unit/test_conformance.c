@@ -555,12 +555,9 @@ static void bad_dt_of_kind(int full_orbit)
 
 Test(conformance, bad_dt_guiding_centre_methods) { bad_dt_of_kind(0); }
 
-/* DISABLED (a finding): the full-orbit step (gcp_block_advance_fo,
- * src/pushers/fo_step.c) does not check dt.  dt = 0 leaves every lane
- * ALIVE with steps counted, a negative dt pushes backwards, dt = inf turns
- * the state non-finite (NONFINITE after a step, the state overwritten), NaN
- * likewise; the guiding-centre methods refuse all four with STEP_FAILED and
- * the state untouched (gc.h).  If negative dt is to stay allowed for the
- * time-reversible full-orbit methods, the table should say so per method;
- * 0, NaN and inf should be STEP_FAILED as for the guiding centre. */
-Test(conformance, bad_dt_full_orbit_methods, .disabled = true) { bad_dt_of_kind(1); }
+/* The full-orbit step (gcp_block_advance_fo) did not check dt (found by
+ * this battery): dt = 0 left every lane ALIVE with steps counted, a
+ * negative dt pushed backwards, inf and NaN overwrote the state.  The evolve
+ * layer now refuses all four as for the guiding centre (STEP_FAILED,
+ * BAD_OPTIONS, the state untouched). */
+Test(conformance, bad_dt_full_orbit_methods) { bad_dt_of_kind(1); }
