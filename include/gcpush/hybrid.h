@@ -17,28 +17,39 @@
  *   (run seed, particle id, number of switches so far) -- uniform in
  *   [0, 2 pi), independent of how particles are spread over ranks.  That
  *   particle's gyro-averaged guiding centre is off by O(eps) with the phase,
- *   so one trial gyration with the FO method measures the offset (against
- *   the GC pushed to the trial's mid-time) and the particle is made again
- *   from the corrected state, mu set to keep the GC energy: O(eps^2) left.
+ *   so a trial with the FO method over the window the way back uses (two
+ *   whole gyrations) measures the offset against the GC trajectory's own
+ *   average over the same window, and the particle is made again from the
+ *   corrected state, mu set to keep the GC energy; repeated until the
+ *   averaged p_par matches to 1e-4 p (a fixed point: the gyro-average of
+ *   the particle is the guiding centre's).
  * FO step: dt_fo = fo_dt x (local gyro-period 2 pi gamma m / |q B(x)|),
  *   re-set at every chunk start from B at the particle (a whole number of
  *   FO steps fills each chunk, so FO chunks end exactly on the GC grid).
  * FO -> GC: X, p_par, mu of gcp_gc_from_fo sampled after every FO step of
  *   the averaging window, integrated (trapezoid) from the window start to
- *   the last completed gyration (gyrophase of x - X swept by 2 pi K, K >= 1,
+ *   the last completed gyration (gyrophase of x - X swept by 2 pi K, K >= 2,
  *   interpolated within the step), divided by its length: the
- *   gyro-averaged guiding centre at the window's mid-time, free of the
- *   O(eps) gyrophase oscillation of the instantaneous transformation
- *   (Northrop 1963; Cary & Brizard 2009 sec. IV).  It is pushed with the GC
- *   method from the mid-time to the chunk end, mu is set so that the GC
+ *   gyro-average, free of the O(eps) gyrophase oscillation of the
+ *   instantaneous transformation (Northrop 1963; Cary & Brizard 2009
+ *   sec. IV).  A fast proton's gyration spans a radian of field line, so
+ *   the average is not the GC at the mid-time (it lies inside the arc):
+ *   the GC state at the window start whose own trajectory has that average
+ *   is found (fixed point, 3 passes), pushed with the GC method to the
+ *   chunk end, and mu is set so that the GC
  *   energy equals the particle's (the average of p_par^2 exceeds the square
  *   of the average by the O(eps^2) variance of the gyrophase oscillation,
  *   which is perpendicular energy; its relative size is kept in the switch
  *   record as dp2), and the lane switches if eps there is below to_gc.
  * What is left: both directions are first-order, so a GC -> FO -> GC cycle
- *   moves mu by O(eps^2) (second-order guiding-centre terms): up to 2.2%
- *   per cycle, -0.7% on average, for a 5 MeV proton at L = 4, pitch 30 deg,
- *   cycling between eps = 0.04 and 0.06 (tests/unit/test_hybrid_dipole.c).
+ *   moves mu by O(eps^2) (second-order guiding-centre terms), which with
+ *   the energy fixed is d mu / mu ~ 2 p_par p (eps_fo^2 + eps_gc^2) /
+ *   p_perp^2: large at small pitch angles.  Up to 1.4% per cycle for a
+ *   5 MeV proton at L = 4, pitch 30 deg, cycling between eps = 0.04 and
+ *   0.06 (tests/unit/test_hybrid_dipole.c); -6% +- 7% per cycle (0.7 of
+ *   that bound RMS; single-gyration windows: -12% +- 16%) for a 5 MeV
+ *   proton at L = 6, 25 deg, with the default thresholds
+ *   (tests/unit/test_hybrid_observer.c).
  *
  * All decisions depend on the particle alone (lanes never interact), so the
  * result of a particle is the same in any block and on any rank count.  A

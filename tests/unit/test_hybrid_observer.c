@@ -162,12 +162,8 @@ static void jump_stats_of(double W, double L, double a_eq, int hybrid, struct ju
  * 1 MeV proton on the same line (rho / R_c ~ 0.05) is the control: its mu
  * changes by < 1e-3 per bounce in both runs, so the jumps are the
  * scattering, not the observer.
- * Not every regime agrees as well: at 20 MeV and 25 deg the hybrid's RMS is
- * 1.4 x Boris's (3.7 sigma), and a 5 MeV proton at L = 6, 25 deg, keeps mu to
- * 0.5% per bounce under Boris while the hybrid's GC mu moves 14-40% per
- * GC -> FO -> GC cycle: the switch kicks of the hybrid itself, which the
- * observer reports as they are (issue 14's statistics test belongs to the
- * hybrid). */
+ * The switches' own kicks, which the observer reports as they are, were
+ * measured with it: see switch_cycle_keeps_mu_to_first_order below. */
 Test(hybrid_observer, curvature_scattering_mu_jumps_as_boris)
 {
     struct jump_stats h, b, hc, bc;
@@ -185,4 +181,111 @@ Test(hybrid_observer, curvature_scattering_mu_jumps_as_boris)
     jump_stats_of(1.0, 5.0, 20.0, 0, &bc);
     cr_log_info("control 1 MeV: hybrid %.2e, boris %.2e", hc.rms, bc.rms);
     cr_assert(hc.rms < 1e-3 && bc.rms < 1e-3 && b.rms > 100 * bc.rms);
+}
+
+/* Issue 14's regime where the switches themselves scattered mu: a 20 MeV
+ * proton at L = 5, equatorial pitch 25 deg.  With single-gyration windows
+ * the hybrid's RMS per-bounce mu jump was 1.4 x Boris's (0.203 +- 0.018
+ * against 0.143 +- 0.009 here: 2.9 standard errors of the difference, 3.7
+ * in the issue's run); with the two-gyration windows it is 0.154 +- 0.012
+ * (0.7).  Same statistics and bound as the 30 MeV test above. */
+Test(hybrid_observer, curvature_scattering_20mev_agrees_with_boris)
+{
+    struct jump_stats h, b;
+    jump_stats_of(20.0, 5.0, 25.0, 1, &h);
+    jump_stats_of(20.0, 5.0, 25.0, 0, &b);
+    cr_log_info("20 MeV, L = 5, 25 deg: RMS mu jump per bounce hybrid %.4f +- %.4f (%lld), boris "
+                "%.4f +- %.4f (%lld)", h.rms, h.sigma, (long long)h.n, b.rms, b.sigma, (long long)b.n);
+    cr_assert(fabs(h.rms - b.rms) < 3.0 * hypot(h.sigma, b.sigma),
+              "RMS mu jump: hybrid %.4f +- %.4f, boris %.4f +- %.4f", h.rms, h.sigma, b.rms, b.sigma);
+}
+
+/* Per-lane record of the GC -> FO -> GC cycles: the GC state at the last
+ * GC step before a switch to FO, and the relative change of mu over each
+ * cycle against its first-order bound. */
+enum { CYC_N = 16 };
+struct cycles {
+    const struct gcp_field *f;
+    double to_fo, to_gc;
+    int in_fo[CYC_N], have[CYC_N];
+    double mu[CYC_N], ppar[CYC_N], X[CYC_N][3];
+    double sum2, sum, n;
+};
+
+static void cycles_obs(const struct gcp_block *v, double t, int mode, void *vctx)
+{
+    struct cycles *c = vctx;
+    for (size_t j = 0; j < v->n_active; j++) {
+        const size_t k = v->index[j];
+        if (mode == GCP_MODE_FO) {
+            c->in_fo[k] = 1;
+            continue;
+        }
+        if (c->in_fo[k] && c->have[k]) {
+            /* A first-order pair of transformations leaves O(eps^2 p) in
+             * p_par at each switch (eps = switch_to_fo going out,
+             * switch_to_gc coming back); with the energy fixed that moves mu
+             * by d mu / mu = 2 p_par d p_par / p_perp^2. */
+            struct gcp_field_sample s = {.need = GCP_NEED_B};
+            gcp_field_eval(c->f, t, c->X[k], &s);
+            const double B = sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
+            const double pperp2 = 2.0 * v->m * c->mu[k] * B;
+            const double p = sqrt(pperp2 + c->ppar[k] * c->ppar[k]);
+            const double bound =
+                2.0 * fabs(c->ppar[k]) * p * (c->to_fo * c->to_fo + c->to_gc * c->to_gc) / pperp2;
+            const double r = (v->mu[j] / c->mu[k] - 1.0) / bound;
+            c->sum2 += r * r, c->sum += r, c->n++;
+        }
+        c->in_fo[k] = 0, c->have[k] = 1;
+        c->mu[k] = v->mu[j], c->ppar[k] = v->ppar[j];
+        c->X[k][0] = v->x[j], c->X[k][1] = v->y[j], c->X[k][2] = v->z[j];
+    }
+}
+
+/* Issue 14: a 5 MeV proton at L = 6, equatorial pitch 25 deg (eps 0.19 at
+ * the equator) switches to FO at eps = 0.1 on the way in and back at 0.05
+ * on the way out, once per half bounce.  Boris keeps its mu to a few
+ * percent per crossing; the hybrid's mu moved by -12% +- 16% per
+ * GC -> FO -> GC cycle (each switch averaged over one gyration, where the
+ * gyrophase oscillation of the instantaneous guiding centre does not
+ * cancel, and the way in corrected once).  The change of each cycle, in
+ * units of its first-order bound (cycles_obs), must have an RMS below 1
+ * over the 16 protons x 3 bounces (it was 1.2, with a mean of -1.0). */
+Test(hybrid_observer, switch_cycle_keeps_mu_to_first_order)
+{
+    struct gcp_field *f = earth();
+    double x[CYC_N][3], u[CYC_N][3];
+    for (int i = 0; i < CYC_N; i++)
+        proton_on_line(f, 6.0, 5.0, 25.0, 0.9, 2 * GCP_PI * i / CYC_N, x[i], u[i]);
+    const struct gcp_species sp = {"proton", GCP_E_CHARGE, GCP_M_PROTON};
+    double Tb;
+    cr_assert_eq(gcp_period_of(f, "dipole", &sp, x[0], u[0], GCP_PERIOD_BOUNCE, &Tb), 0);
+    const struct gcp_hybrid_opts ho = {.gc = &gcp_pusher_gc_rk4, .fo = &gcp_pusher_boris,
+                                       .to_fo = 0.1, .to_gc = 0.05, .fo_dt = 0.05, .seed = 7};
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, CYC_N), 0);
+    b.q = GCP_E_CHARGE, b.m = GCP_M_PROTON;
+    for (int i = 0; i < CYC_N; i++) {
+        b.x[i] = x[i][0], b.y[i] = x[i][1], b.z[i] = x[i][2];
+        b.ux[i] = u[i][0], b.uy[i] = u[i][1], b.uz[i] = u[i][2];
+    }
+    cr_assert_eq(gcp_block_start(&b, f, 0.0), CYC_N);
+    struct gcp_hybrid *h = NULL;
+    cr_assert_eq(gcp_hybrid_create(&h, CYC_N, &ho), 0);
+    gcp_hybrid_begin(h, &b, f, 0.0, 0);
+    struct cycles c = {.f = f, .to_fo = ho.to_fo, .to_gc = ho.to_gc};
+    const struct gcp_hybrid_observer hob = {cycles_obs, &c};
+    gcp_hybrid_set_observer(h, &hob);
+    gcp_hybrid_observe(h, &b, 0.0);
+    const double dt = 0.01 * Tb;
+    const struct gcp_push_opts po = {.t0 = 0.0, .dt = dt, .nsteps = (int64_t)(3 * Tb / dt)};
+    gcp_hybrid_advance(h, &b, f, &po, NULL);
+    const double rms = sqrt(c.sum2 / c.n), mean = c.sum / c.n;
+    cr_log_info("5 MeV, L = 6, 25 deg: %.0f cycles, mu change / first-order bound: RMS %.2f, "
+                "mean %+.2f", c.n, rms, mean);
+    cr_assert_gt(c.n, 30);
+    cr_assert_lt(rms, 1.0, "mu change per cycle / bound: RMS %.2f, mean %+.2f", rms, mean);
+    gcp_hybrid_free(h);
+    gcp_block_free(&b);
+    gcp_field_free(f);
 }
