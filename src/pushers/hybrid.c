@@ -282,8 +282,11 @@ static void push_fo(struct gcp_hybrid *h, struct gcp_block *b, const struct gcp_
         struct fwd_ctx fw = {.h = h, .b = b, .mode = GCP_MODE_FO, .any_avg = any_avg,
                              .fc = {h, b, f}};
         const struct gcp_sampler smp = {1, forward, &fw};
-        gcp_block_advance_fo(s, f, h->o.fo, tl, (t1 - tl) / (double)ns, ns,
-                             any_avg || h->obs.fn ? &smp : NULL);
+        /* a lane that switched exactly at t1 has nothing left to push (the
+         * full-orbit step refuses dt = 0: it used to count a step of zero) */
+        if (t1 > tl)
+            gcp_block_advance_fo(s, f, h->o.fo, tl, (t1 - tl) / (double)ns, ns,
+                                 any_avg || h->obs.fn ? &smp : NULL);
         for (size_t j = 0; j < g1 - g0; j++) {
             const size_t i = scatter(b, s, j);
             struct hlane *L = lane_of(h, b, i);
