@@ -57,7 +57,9 @@
  * 1e-15, Hairer & Wanner, Solving ODEs II, sec. IV.8).  An update that
  * shrinks less than 2x above the round-off floor (after the second
  * iterate) abandons the lifted step for the inverting solver from the
- * start of the step.
+ * start of the step.  Where the chart also has lift_eval_block (the
+ * curl-free chart), the same solve runs over the lanes of a block together,
+ * vectorised (gc_gauss_block.c); gl_step_lift is then the per-lane form.
  *
  * State.  The canonical z of each lane is kept between the steps of one
  * advance, so that the map applied is exactly the symplectic map; X, p_par
