@@ -375,6 +375,50 @@ static void cf_lift_eval_block(const struct gcp_canon_chart *c, const struct gcp
     }
 }
 
+/* One of cf_invert's Newton iterates (its operations and tests; from_canon
+ * asks for |B|) at the nb points (Rw, Zw) of cf_from_canon_block from the
+ * field there (Bv, Gv, psi, chi), for the lanes still active: a lane done
+ * gets |B| (Bm) and its point, the others move by the update.  Returns the
+ * count still active.  Restrict parameters: the loop vectorises. */
+static size_t cf_invert_iterate(size_t nb, const double *restrict Bv, const double *restrict Gv,
+                                const double *restrict psi, const double *restrict chi,
+                                const double *restrict psit, const double *restrict chit,
+                                const int32_t *restrict st, double *restrict Rw,
+                                double *restrict Zw, double *restrict Bm, int32_t *restrict act,
+                                int32_t *restrict done)
+{
+    size_t left = 0;
+#define B_(c) Bv[(c) * CF_BLK + j]
+#define G_(a, b) Gv[((a) * 3 + (b)) * CF_BLK + j]
+    for (size_t j = 0; j < nb; j++) {
+        const double R = Rw[j], Z = Zw[j];
+        const double BR = B_(0), BZ = B_(2), B2 = BR * BR + BZ * BZ;
+        const double F0 = psi[j] - psit[j], F1 = chi[j] - chit[j];
+        const double dR = (-BZ * F0 + R * BR * F1) / (R * B2);
+        const double dZ = (BR * F0 + R * BZ * F1) / (R * B2);
+        const double dn = fabs(dR) + fabs(dZ), scale = R + fabs(Z);
+        const double Bt = sqrt(B2 + B_(1) * B_(1));
+        const double gB0 = (B_(0) * G_(0, 0) + B_(1) * G_(1, 0) + B_(2) * G_(2, 0)) / Bt;
+        const double gB2 = (B_(0) * G_(0, 2) + B_(1) * G_(1, 2) + B_(2) * G_(2, 2)) / Bt;
+        const int ok = (R > 0.0) & (fabs(Z) <= DBL_MAX) & (st[j] == 0) &
+                       (fabs(dR + dZ) <= DBL_MAX);
+        const int ulp = dn <= CF_ULP * scale, fin = ok & (dn <= CF_DONE * scale);
+        const int a = act[j];
+        /* finished here: the point in hand (ulp) or the updated one */
+        const double Bfin = ulp ? Bt : Bt + gB0 * dR + gB2 * dZ;
+        const int take = a & fin, move = a & ok & !(fin & ulp);
+        Bm[j] = take ? Bfin : Bm[j];
+        done[j] = take ? 1 : done[j];
+        Rw[j] = move ? R + dR : R;
+        Zw[j] = move ? Z + dZ : Z;
+        act[j] = a & ok & !fin;
+        left += (size_t)act[j];
+    }
+#undef B_
+#undef G_
+    return left;
+}
+
 /* cf_from_canon at n states (canon_priv.h from_canon_block): cf_invert's
  * Newton iterates for all of them at once (one block field evaluation per
  * iterate, the converged lanes masked), with its operations and tests, so
@@ -387,7 +431,7 @@ static void cf_from_canon_block(const struct gcp_canon_chart *c, const struct gc
                                 double *const X[3], double *ppar, int32_t *done)
 {
     double Y[CF_BLK], B[3][CF_BLK], G[3][3][CF_BLK], psi[CF_BLK], chi[CF_BLK], Bm[CF_BLK];
-    double Rw[CF_BLK], Zw[CF_BLK];
+    double Rw[CF_BLK], Zw[CF_BLK], psit[CF_BLK], chit[CF_BLK];
     int32_t st[CF_BLK], act[CF_BLK];
     const struct gcp_field_soa fo = {{B[0], B[1], B[2]},
                                      {{G[0][0], G[0][1], G[0][2]},
@@ -400,37 +444,15 @@ static void cf_from_canon_block(const struct gcp_canon_chart *c, const struct gc
         for (size_t j = 0; j < nb; j++) {
             Rw[j] = aux0[j0 + j], Zw[j] = aux1[j0 + j], Y[j] = 0.0;
             dn_[j] = 0, act[j] = 1, Bm[j] = 0.0;
+            psit[j] = z[2][j0 + j] / k->q, chit[j] = z[1][j0 + j];
         }
         size_t left = nb;
         for (int it = 0; it < CF_MAXIT && left > 0; it++) {
             for (size_t j = 0; j < nb; j++) st[j] = 0;
             gcp_field_eval_soa(c->field, 0.0, GCP_NEED_B | GCP_NEED_GRADB, nb, Rw, Y, Zw, &fo, st);
             gcp_field_flux_potential_rz(c->field, nb, Rw, Zw, psi, chi);
-            left = 0;
-            for (size_t j = 0; j < nb; j++) {
-                const double R = Rw[j], Z = Zw[j];
-                const double BR = B[0][j], BZ = B[2][j], B2 = BR * BR + BZ * BZ;
-                const double F0 = psi[j] - z[2][j0 + j] / k->q, F1 = chi[j] - z[1][j0 + j];
-                const double dR = (-BZ * F0 + R * BR * F1) / (R * B2);
-                const double dZ = (BR * F0 + R * BZ * F1) / (R * B2);
-                const double dn = fabs(dR) + fabs(dZ), scale = R + fabs(Z);
-                const double Bt = sqrt(B2 + B[1][j] * B[1][j]);
-                const double gB0 =
-                    (B[0][j] * G[0][0][j] + B[1][j] * G[1][0][j] + B[2][j] * G[2][0][j]) / Bt;
-                const double gB2 =
-                    (B[0][j] * G[0][2][j] + B[1][j] * G[1][2][j] + B[2][j] * G[2][2][j]) / Bt;
-                const int ok = (R > 0.0) & (fabs(Z) <= DBL_MAX) & (st[j] == 0) &
-                               (fabs(dR + dZ) <= DBL_MAX);
-                const int ulp = dn <= CF_ULP * scale, fin = ok & (dn <= CF_DONE * scale);
-                const int a = act[j];
-                /* finished here: the point in hand (ulp) or the updated one */
-                Bm[j] = a & fin ? (ulp ? Bt : Bt + gB0 * dR + gB2 * dZ) : Bm[j];
-                dn_[j] = a & fin ? 1 : dn_[j];
-                Rw[j] = a & ok & !(fin & ulp) ? R + dR : R;
-                Zw[j] = a & ok & !(fin & ulp) ? Z + dZ : Z;
-                act[j] = a & ok & !fin;
-                left += (size_t)act[j];
-            }
+            left = cf_invert_iterate(nb, &B[0][0], &G[0][0][0], psi, chi, psit, chit, st, Rw, Zw,
+                                     Bm, act, dn_);
         }
         for (size_t j = 0; j < nb; j++) {
             if (!dn_[j]) continue;
