@@ -13,15 +13,20 @@
  * stay branch free, and the iteration ends when no lane is iterating.
  *
  * The map is that of gl_step_lift, operation for operation (the same
- * predictor and points, gcp_gl_lift_begin; the same DF and J^-1,
- * gcp_gl_lift_jinv; the same update, convergence and abandon tests; the same
- * end, gcp_gl_lift_end): each lane's numbers are those of the per-lane
- * solver.  A lane whose lifted solve fails (predictor, a chart evaluation, a
- * singular J, an update that stops contracting, 40 iterations) takes the
- * per-lane path without the lifted solver (gcp_gl_step_lane, lift = 0: the
- * inverting solver from the start of the step), exactly as gl_step_lift's
- * failure does lane by lane.
+ * predictor and points, gcp_gl_lift_begin; the same DF; the same J^-1 as
+ * gcp_gl_lift_jinv, its LU with partial pivoting written with selects over
+ * the lanes, gb_jinv; the same update, convergence and abandon tests; the
+ * same end, gcp_gl_lift_end): each lane's numbers are those of the
+ * per-lane solver (runs/dipole.run's output is bit-identical).  A lane
+ * whose lifted solve fails (predictor, a chart evaluation, a singular J, an
+ * update that stops contracting, 40 iterations) takes the per-lane path
+ * without the lifted solver (gcp_gl_step_lane, lift = 0: the inverting
+ * solver from the start of the step), exactly as gl_step_lift's failure
+ * does lane by lane.  The start-of-step check (gcp_gc_check_block) and the
+ * end point's mapping back (the chart's from_canon_block) are block
+ * evaluations too.
  */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -62,7 +67,7 @@ static void gb_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, size_
  * at its stage points (e, index x + i m) and at the points moved along
  * dp/deta (e2): 0 or -1. */
 static int gb_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
-                 double h, const struct gb_eval *e, const struct gb_eval *e2, size_t x, size_t m,
+                 const struct gb_eval *e, const struct gb_eval *e2, size_t x, size_t m,
                  const double *Pe)
 {
     for (int i = 0; i < C->tab->s; i++) {
@@ -83,7 +88,7 @@ static int gb_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct g
         if (!isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1]))
             return -1;
     }
-    return gcp_gl_lift_jinv(C, L, h);
+    return 0;
 }
 
 /* The chunk's state (struct of arrays; lane j of the chunk, stage i at
@@ -92,6 +97,7 @@ struct gb_chunk {
     double mu[NP], R[NP], Z[NP], Pe[NP], eta[NP], K0[NP], K1[NP], pd[NP];
     double R2[NP], Z2[NP];
     double DFe0[NP], DFe1[NP]; /* the eta column of DF */
+    double DF[GL_SMAX][2][2][GB_BLK];
     double Jinv[16][GB_BLK], z1[GB_BLK], z2[GB_BLK], z3[GB_BLK];
     double sc0[GB_BLK], sc1[GB_BLK], scp[GB_BLK], nprev[GB_BLK], nd[GB_BLK];
     double d[4][GB_BLK], e[GL_SMAX][GB_BLK];
@@ -103,6 +109,95 @@ struct gb_chunk {
     size_t idx[GB_BLK];
     struct gl_lane save[GB_BLK]; /* the converged lanes before their ends */
 };
+
+/* J = delta_ij I - h a_ij DF_i and J^-1 of every lane of the chunk (the
+ * numbers of gcp_gl_lift_jinv: gl_assemble, the LU with partial pivoting
+ * of lu_n and lu_solve of each unit vector), the pivot choices and row
+ * swaps by selects, so that the loops over the lanes vectorise; a lane
+ * whose pivot is 0 or not finite fails (lu_n's -1).  They stay in the
+ * chunk: a lane's own J, Jinv are not written (every lifted step builds
+ * them anew, and a lane that falls back has have_J = 0 first, so the
+ * inverting solver never reuses them). */
+static inline __attribute__((always_inline)) void
+gb_jinv_s(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h, int s)
+{
+    const int n = 2 * s;
+    double A[16][GB_BLK];
+    int piv[4][GB_BLK];
+    int bad[GB_BLK];
+    for (int i = 0; i < s; i++)
+        for (int jj = 0; jj < s; jj++)
+            for (int r = 0; r < 2; r++)
+                for (int col = 0; col < 2; col++) {
+                    const double dl = i == jj && r == col ? 1.0 : 0.0, ha = h * T->a[i][jj];
+                    double *a = A[n * (2 * i + r) + 2 * jj + col];
+                    for (size_t j = 0; j < m; j++) a[j] = dl - ha * c->DF[i][r][col][j];
+                }
+    for (size_t j = 0; j < m; j++) bad[j] = 0;
+    for (int k = 0; k < n; k++) {
+        for (size_t j = 0; j < m; j++) {
+            int pk = k;
+            double best = fabs(A[n * k + k][j]);
+            for (int i = k + 1; i < n; i++) {
+                const double v = fabs(A[n * i + k][j]);
+                const int take = v > best;
+                pk = take ? i : pk;
+                best = take ? v : best;
+            }
+            piv[k][j] = pk;
+        }
+        for (int i = k + 1; i < n; i++)
+            for (size_t j = 0; j < m; j++) {
+                const int sw = piv[k][j] == i;
+                for (int col = 0; col < n; col++) {
+                    const double t = A[n * k + col][j], u = A[n * i + col][j];
+                    A[n * k + col][j] = sw ? u : t;
+                    A[n * i + col][j] = sw ? t : u;
+                }
+            }
+        for (size_t j = 0; j < m; j++) {
+            const double p = A[n * k + k][j];
+            bad[j] |= !(p != 0.0) | !(fabs(p) <= DBL_MAX);
+        }
+        for (int i = k + 1; i < n; i++)
+            for (size_t j = 0; j < m; j++) {
+                const double l = A[n * i + k][j] / A[n * k + k][j];
+                A[n * i + k][j] = l;
+                for (int col = k + 1; col < n; col++) A[n * i + col][j] -= l * A[n * k + col][j];
+            }
+    }
+    for (int col = 0; col < n; col++)
+        for (size_t j = 0; j < m; j++) {
+            double x[4];
+            for (int r = 0; r < n; r++) x[r] = r == col ? 1.0 : 0.0;
+            for (int k = 0; k < n; k++) {
+                const double t = x[k];
+                for (int i = k + 1; i < n; i++) {
+                    const int sw = piv[k][j] == i;
+                    const double u = x[i];
+                    x[k] = sw ? u : x[k];
+                    x[i] = sw ? t : u;
+                }
+            }
+            for (int k = 0; k < n; k++)
+                for (int i = k + 1; i < n; i++) x[i] -= A[n * i + k][j] * x[k];
+            for (int k = n - 1; k >= 0; k--) {
+                for (int jj = k + 1; jj < n; jj++) x[k] -= A[n * k + jj][j] * x[jj];
+                x[k] /= A[n * k + k][j];
+            }
+            for (int r = 0; r < n; r++) c->Jinv[n * r + col][j] = x[r];
+        }
+    for (size_t j = 0; j < m; j++)
+        c->state[j] = bad[j] && c->state[j] == GB_ITER ? GB_FAIL : c->state[j];
+}
+
+/* s constant in each branch: the loops over the matrix entries unroll and
+ * those over the lanes vectorise */
+static void gb_jinv(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h)
+{
+    if (T->s == 2) gb_jinv_s(T, c, m, h, 2);
+    else gb_jinv_s(T, c, m, h, 1);
+}
 
 /* One Newton iteration's update over the chunk (gl_step_lift's, lane by
  * lane the same operations): the updates d = J^-1 G, their norm nd, and the
@@ -234,16 +329,25 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
             for (size_t j = 0; j < m; j++) {
                 if (c->state[j] != GB_ITER) continue;
                 k.mu = b->mu[i0 + j];
-                if (gb_df(C, &k, &L[j], h, &c->ev, &c->ev2, j, m, c->Pe)) {
+                if (gb_df(C, &k, &L[j], &c->ev, &c->ev2, j, m, c->Pe)) {
                     c->state[j] = GB_FAIL;
                     continue;
                 }
-                for (int r = 0; r < 16; r++) c->Jinv[r][j] = L[j].Jinv[r];
-                for (int i = 0; i < s; i++) {
-                    c->DFe0[(size_t)i * m + j] = L[j].DF[i][0][0];
-                    c->DFe1[(size_t)i * m + j] = L[j].DF[i][1][0];
-                }
+                for (int i = 0; i < s; i++)
+                    for (int r = 0; r < 2; r++)
+                        for (int col = 0; col < 2; col++) c->DF[i][r][col][j] = L[j].DF[i][r][col];
             }
+            for (size_t j = 0; j < m; j++) /* the failed lanes' J: I (not used) */
+                for (int i = 0; i < s; i++)
+                    for (int r = 0; r < 2; r++)
+                        for (int col = 0; col < 2; col++)
+                            c->DF[i][r][col][j] = c->state[j] == GB_ITER ? c->DF[i][r][col][j] : 0.0;
+            gb_jinv(T, c, m, h);
+            for (int i = 0; i < s; i++)
+                for (size_t j = 0; j < m; j++) {
+                    c->DFe0[(size_t)i * m + j] = c->DF[i][0][0][j];
+                    c->DFe1[(size_t)i * m + j] = c->DF[i][1][0][j];
+                }
         }
         gb_update(T, c, m, h);
         /* the mask: gl_step_lift's convergence and abandon tests */
