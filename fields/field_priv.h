@@ -39,5 +39,8 @@ int gcp_dipole_flux_potential(const struct gcp_field *f, const double x[3], doub
                               double *chi);
 int gcp_mirror_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
                               double *chi);
+/* gcp_dipole_flux_potential at n points (R[k], 0, Z[k]). */
+void gcp_dipole_flux_potential_rz(const struct gcp_field *f, size_t n, const double *R,
+                                  const double *Z, double *psi, double *chi);
 
 #endif

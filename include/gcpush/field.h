@@ -237,6 +237,10 @@ void gcp_field_eval_block_generic(const struct gcp_field *f, double t, size_t n,
  * curl-free canonical chart of the symplectic guiding-centre methods. */
 int gcp_field_flux_potential(const struct gcp_field *f, const double x[3], double *psi,
                              double *chi);
+/* The same at n points (R[k], 0, Z[k]) of the y = 0 half plane, the same
+ * numbers point by point (the dipole's as one vectorised loop). */
+int gcp_field_flux_potential_rz(const struct gcp_field *f, size_t n, const double *R,
+                                const double *Z, double *psi, double *chi);
 
 #ifdef __cplusplus
 }

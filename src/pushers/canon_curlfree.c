@@ -46,6 +46,7 @@
  * would add q Omega psi = Omega P_phi to H, but the chart would then need
  * the model's Omega; not done, see the report of issue 11).
  */
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -284,6 +285,187 @@ static int cf_lift_ham(const struct gcp_canon_chart *c, const struct gcp_gc_cons
     return st;
 }
 
+#define CF_BLK 64
+
+/* cf_lift_eval's and cf_lift_h's arithmetic at nb points from the field
+ * values B, G and psi, chi (cf_lift_eval_block), into out[CF_*] (local
+ * arrays and restrict parameters: the compiler can prove that nothing
+ * aliases, and vectorises the loop). */
+enum { CF_PPHI, CF_ETA, CF_H, CF_DH1, CF_DH2, CF_DH3, CF_BM, CF_DBM1, CF_DBM2, CF_DP00, CF_DP01,
+       CF_DP10, CF_DP11, CF_NOUT };
+static void cf_lift_math(const struct gcp_gc_consts *k, size_t nb, const double *restrict r,
+                         const double *restrict zz, const double *restrict pe,
+                         const double *restrict mu_, const double *restrict Bv,
+                         const double *restrict Gv, const double *restrict psi,
+                         const double *restrict chi, double *restrict out, int32_t *restrict st)
+{
+    const double q = k->q, m = k->m, iq = 1.0 / q, mc = m * GCP_C_LIGHT;
+#define B_(c) Bv[(c) * CF_BLK + j]
+#define G_(a, b) Gv[((a) * 3 + (b)) * CF_BLK + j]
+#define O_(w) out[(w) * CF_BLK + j]
+    for (size_t j = 0; j < nb; j++) {
+        const double BR = B_(0), BZ = B_(2), Bp = B_(1);
+        const double B2 = BR * BR + Bp * Bp + BZ * BZ;
+        const double Bm = sqrt(B2), iB2 = 1.0 / B2, iBm = Bm * iB2, iR = 1.0 / r[j];
+        const double gB0 = (BR * G_(0, 0) + Bp * G_(1, 0) + BZ * G_(2, 0)) * iBm;
+        const double gB2 = (BR * G_(0, 2) + Bp * G_(1, 2) + BZ * G_(2, 2)) * iBm;
+        const double dBdpsi = (gB0 * BZ - gB2 * BR) * iR * iB2;
+        const double dBdchi = -(gB0 * BR + gB2 * BZ) * iB2;
+        const double dBm2 = dBdpsi * iq;
+        O_(CF_BM) = Bm;
+        O_(CF_PPHI) = q * psi[j];
+        O_(CF_ETA) = chi[j];
+        O_(CF_DBM1) = dBdchi;
+        O_(CF_DBM2) = dBm2;
+        O_(CF_DP00) = BZ * iR * iB2 * iq;
+        O_(CF_DP10) = -BR * iR * iB2 * iq;
+        O_(CF_DP01) = -BR * iB2;
+        O_(CF_DP11) = -BZ * iB2;
+        /* cf_lift_h */
+        const double ppar = -pe[j] * Bm, a = ppar / mc;
+        const double gamma = sqrt(1.0 + a * a + 2.0 * mu_[j] * Bm / (mc * GCP_C_LIGHT));
+        const double igm = 1.0 / (gamma * m);
+        const double vpar = ppar * igm;
+        const double w = ppar * vpar * iBm + mu_[j] * (igm * m);
+        const double H = gamma * m * GCP_C_LIGHT * GCP_C_LIGHT;
+        const double dH1 = w * dBdchi, dH2 = w * dBm2, dH3 = -Bm * vpar;
+        O_(CF_H) = H;
+        O_(CF_DH1) = dH1;
+        O_(CF_DH2) = dH2;
+        O_(CF_DH3) = dH3;
+        /* the statuses by selects (no branch: the loop vectorises) */
+        const int okp = (r[j] > 0.0) & (fabs(zz[j]) <= DBL_MAX);
+        const int okv = fabs(H + dH1 + dH2 + dH3) <= DBL_MAX;
+        const int32_t code = okp ? (okv ? 0 : GCP_NONFINITE) : GCP_STEP_FAILED;
+        st[j] = st[j] != 0 ? st[j] : code;
+    }
+#undef B_
+#undef G_
+#undef O_
+}
+
+/* cf_lift_eval at n points (canon_priv.h lift_eval_block): the field's
+ * block evaluation (gcp_field_eval_soa), then cf_lift_eval's and
+ * cf_lift_h's arithmetic, in the same order, in one branch-free loop that
+ * the compiler vectorises (the divisions and square roots of the scalar
+ * form were the solver's cost). */
+static void cf_lift_eval_block(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                               size_t n, const double *mu, const double *R, const double *Z,
+                               const double *Peta, const struct gcp_canon_lift_soa *o,
+                               int32_t *status)
+{
+    double Y[CF_BLK], B[3][CF_BLK], G[3][3][CF_BLK], psi[CF_BLK], chi[CF_BLK];
+    double out[CF_NOUT][CF_BLK];
+    const struct gcp_field_soa fo = {{B[0], B[1], B[2]},
+                                     {{G[0][0], G[0][1], G[0][2]},
+                                      {G[1][0], G[1][1], G[1][2]},
+                                      {G[2][0], G[2][1], G[2][2]}},
+                                     {NULL, NULL, NULL}};
+    for (size_t j0 = 0; j0 < n; j0 += CF_BLK) {
+        const size_t nb = n - j0 < CF_BLK ? n - j0 : CF_BLK;
+        const double *r = R + j0, *zz = Z + j0, *pe = Peta + j0, *mu_ = mu + j0;
+        int32_t *st = status + j0;
+        for (size_t j = 0; j < nb; j++) Y[j] = 0.0, st[j] = 0;
+        gcp_field_eval_soa(c->field, 0.0, GCP_NEED_B | GCP_NEED_GRADB, nb, r, Y, zz, &fo, st);
+        gcp_field_flux_potential_rz(c->field, nb, r, zz, psi, chi);
+        cf_lift_math(k, nb, r, zz, pe, mu_, &B[0][0], &G[0][0][0], psi, chi, &out[0][0], st);
+        double *const dst[CF_NOUT] = {o->Pphi, o->eta,  o->H,    o->dH1,  o->dH2,  o->dH3, o->Bm,
+                                      o->dBm1, o->dBm2, o->dp00, o->dp01, o->dp10, o->dp11};
+        for (int w = 0; w < CF_NOUT; w++) memcpy(dst[w] + j0, out[w], nb * sizeof(double));
+    }
+}
+
+/* One of cf_invert's Newton iterates (its operations and tests; from_canon
+ * asks for |B|) at the nb points (Rw, Zw) of cf_from_canon_block from the
+ * field there (Bv, Gv, psi, chi), for the lanes still active: a lane done
+ * gets |B| (Bm) and its point, the others move by the update.  Returns the
+ * count still active.  Restrict parameters: the loop vectorises. */
+static size_t cf_invert_iterate(size_t nb, const double *restrict Bv, const double *restrict Gv,
+                                const double *restrict psi, const double *restrict chi,
+                                const double *restrict psit, const double *restrict chit,
+                                const int32_t *restrict st, double *restrict Rw,
+                                double *restrict Zw, double *restrict Bm, int32_t *restrict act,
+                                int32_t *restrict done)
+{
+    size_t left = 0;
+#define B_(c) Bv[(c) * CF_BLK + j]
+#define G_(a, b) Gv[((a) * 3 + (b)) * CF_BLK + j]
+    for (size_t j = 0; j < nb; j++) {
+        const double R = Rw[j], Z = Zw[j];
+        const double BR = B_(0), BZ = B_(2), B2 = BR * BR + BZ * BZ;
+        const double F0 = psi[j] - psit[j], F1 = chi[j] - chit[j];
+        const double dR = (-BZ * F0 + R * BR * F1) / (R * B2);
+        const double dZ = (BR * F0 + R * BZ * F1) / (R * B2);
+        const double dn = fabs(dR) + fabs(dZ), scale = R + fabs(Z);
+        const double Bt = sqrt(B2 + B_(1) * B_(1));
+        const double gB0 = (B_(0) * G_(0, 0) + B_(1) * G_(1, 0) + B_(2) * G_(2, 0)) / Bt;
+        const double gB2 = (B_(0) * G_(0, 2) + B_(1) * G_(1, 2) + B_(2) * G_(2, 2)) / Bt;
+        const int ok = (R > 0.0) & (fabs(Z) <= DBL_MAX) & (st[j] == 0) &
+                       (fabs(dR + dZ) <= DBL_MAX);
+        const int ulp = dn <= CF_ULP * scale, fin = ok & (dn <= CF_DONE * scale);
+        const int a = act[j];
+        /* finished here: the point in hand (ulp) or the updated one */
+        const double Bfin = ulp ? Bt : Bt + gB0 * dR + gB2 * dZ;
+        const int take = a & fin, move = a & ok & !(fin & ulp);
+        Bm[j] = take ? Bfin : Bm[j];
+        done[j] = take ? 1 : done[j];
+        Rw[j] = move ? R + dR : R;
+        Zw[j] = move ? Z + dZ : Z;
+        act[j] = a & ok & !fin;
+        left += (size_t)act[j];
+    }
+#undef B_
+#undef G_
+    return left;
+}
+
+/* cf_from_canon at n states (canon_priv.h from_canon_block): cf_invert's
+ * Newton iterates for all of them at once (one block field evaluation per
+ * iterate, the converged lanes masked), with its operations and tests, so
+ * the same numbers (from_canon asks for |B|: an update below CF_DONE ends
+ * it, with |B| linearised unless below CF_ULP).  A lane that cannot be
+ * mapped (off the half plane, a field status, a non-finite update,
+ * CF_MAXIT iterates) is left to cf_from_canon, which fails it the same way. */
+static void cf_from_canon_block(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                                size_t n, const double *const z[4], double *aux0, double *aux1,
+                                double *const X[3], double *ppar, int32_t *done)
+{
+    double Y[CF_BLK], B[3][CF_BLK], G[3][3][CF_BLK], psi[CF_BLK], chi[CF_BLK], Bm[CF_BLK];
+    double Rw[CF_BLK], Zw[CF_BLK], psit[CF_BLK], chit[CF_BLK];
+    int32_t st[CF_BLK], act[CF_BLK];
+    const struct gcp_field_soa fo = {{B[0], B[1], B[2]},
+                                     {{G[0][0], G[0][1], G[0][2]},
+                                      {G[1][0], G[1][1], G[1][2]},
+                                      {G[2][0], G[2][1], G[2][2]}},
+                                     {NULL, NULL, NULL}};
+    for (size_t j0 = 0; j0 < n; j0 += CF_BLK) {
+        const size_t nb = n - j0 < CF_BLK ? n - j0 : CF_BLK;
+        int32_t *dn_ = done + j0;
+        for (size_t j = 0; j < nb; j++) {
+            Rw[j] = aux0[j0 + j], Zw[j] = aux1[j0 + j], Y[j] = 0.0;
+            dn_[j] = 0, act[j] = 1, Bm[j] = 0.0;
+            psit[j] = z[2][j0 + j] / k->q, chit[j] = z[1][j0 + j];
+        }
+        size_t left = nb;
+        for (int it = 0; it < CF_MAXIT && left > 0; it++) {
+            for (size_t j = 0; j < nb; j++) st[j] = 0;
+            gcp_field_eval_soa(c->field, 0.0, GCP_NEED_B | GCP_NEED_GRADB, nb, Rw, Y, Zw, &fo, st);
+            gcp_field_flux_potential_rz(c->field, nb, Rw, Zw, psi, chi);
+            left = cf_invert_iterate(nb, &B[0][0], &G[0][0][0], psi, chi, psit, chit, st, Rw, Zw,
+                                     Bm, act, dn_);
+        }
+        for (size_t j = 0; j < nb; j++) {
+            if (!dn_[j]) continue;
+            const double phi = z[0][j0 + j];
+            aux0[j0 + j] = Rw[j], aux1[j0 + j] = Zw[j];
+            X[0][j0 + j] = Rw[j] * cos(phi);
+            X[1][j0 + j] = Rw[j] * sin(phi);
+            X[2][j0 + j] = Zw[j];
+            ppar[j0 + j] = -z[3][j0 + j] * Bm[j];
+        }
+    }
+}
+
 int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_chart *out,
                                     char *why, size_t whylen)
 {
@@ -312,5 +494,7 @@ int gcp_canon_chart_curlfree_create(const struct gcp_field *f, struct gcp_canon_
     out->field_strength = cf_field_strength;
     out->lift_eval = cf_lift_eval;
     out->lift_ham = cf_lift_ham;
+    out->lift_eval_block = cf_lift_eval_block;
+    out->from_canon_block = cf_from_canon_block;
     return 0;
 }

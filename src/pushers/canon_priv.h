@@ -36,6 +36,7 @@
 #define GCPUSH_CANON_PRIV_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "gcpush/field.h"
 
@@ -52,6 +53,12 @@ struct gcp_canon_lift {
     double H, dH[4];    /* [J] H at (p, P_eta) and dH/dz */
     double Bm, dBm[4];  /* [T] |B| at p and d|B|/dz */
     double dp[2][2];    /* dp_r / d(P_phi, eta)_c at p: a change of P_phi, eta -> of p */
+};
+
+/* lift_eval over a block of points, struct of arrays (n entries each). */
+struct gcp_canon_lift_soa {
+    double *Pphi, *eta, *H, *dH1, *dH2, *dH3, *Bm, *dBm1, *dBm2;
+    double *dp00, *dp01, *dp10, *dp11; /* dp[r][c] as in gcp_canon_lift */
 };
 
 struct gcp_canon_chart {
@@ -88,6 +95,21 @@ struct gcp_canon_chart {
      * o alone (no field evaluation).  0 or a status. */
     int (*lift_ham)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
                     const struct gcp_canon_lift *o, double Peta, double *H, double dH[4]);
+    /* Optional (with lift_eval): lift_eval at n points (R[j], Z[j]) with
+     * P_eta Peta[j] and magnetic moment mu[j] (q, m of k), the same numbers
+     * point by point; status[j] 0 or lift_eval's status.  The block solver
+     * of gc_gauss_block.c evaluates all stage points of a block through it. */
+    void (*lift_eval_block)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                            size_t n, const double *mu, const double *R, const double *Z,
+                            const double *Peta, const struct gcp_canon_lift_soa *o,
+                            int32_t *status);
+    /* Optional: from_canon at n states (SoA z0 .. z3, guesses aux0, aux1)
+     * for those it maps at its first Newton iterate (done[j] = 1: X0 .. X2,
+     * ppar and aux written, the same numbers as from_canon); the others
+     * (done[j] = 0, their aux untouched) are from_canon's to map. */
+    void (*from_canon_block)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                             size_t n, const double *const z[4], double *aux0, double *aux1,
+                             double *const X[3], double *ppar, int32_t *done);
 };
 
 /* Builds a chart for field f (the first constructor in canon_chart.c that

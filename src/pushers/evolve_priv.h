@@ -84,6 +84,10 @@ struct gcp_stepper {
      * returns 0 or the lane's status, as gcp_gc_lane_ops.step. */
     int (*step_lane)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
                      double t, double h, void *lane);
+    /* Or the block form with the lanes' states (lane i's at lanes + i
+     * lane_size), used when step is NULL and this is not: as step. */
+    int32_t (*step_lanes)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                          double t, double h, unsigned char *lanes);
 };
 
 /* Pushes the live lanes of b by up to o->nsteps fixed steps of o->dt from
@@ -165,6 +169,8 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
         int32_t failed = 0;
         if (st->step) {
             failed = st->step(&ev, ctx, b, n, t, h);
+        } else if (st->step_lanes) {
+            failed = st->step_lanes(&ev, ctx, b, n, t, h, L);
         } else {
             for (size_t i = 0; i < n; i++) {
                 const int r = st->step_lane(&ev, ctx, b, i, t, h, L + i * sz);
@@ -228,5 +234,9 @@ int32_t gcp_evolve_adaptive_step(const struct gcp_evolve *ev, gsl_odeiv2_system 
  * the first step, which begin checked. */
 int32_t gcp_evolve_gc_check(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
                             double t, int first);
+/* The same verdicts from a block evaluation (gc_rk4.c's vectorised stage
+ * 1): the check of the block-solved methods (gc-gl2, gc-gl4). */
+int32_t gcp_gc_check_block(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                           double t, int first);
 
 #endif

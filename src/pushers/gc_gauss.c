@@ -57,7 +57,9 @@
  * 1e-15, Hairer & Wanner, Solving ODEs II, sec. IV.8).  An update that
  * shrinks less than 2x above the round-off floor (after the second
  * iterate) abandons the lifted step for the inverting solver from the
- * start of the step.
+ * start of the step.  Where the chart also has lift_eval_block (the
+ * curl-free chart), the same solve runs over the lanes of a block together,
+ * vectorised (gc_gauss_block.c); gl_step_lift is then the per-lane form.
  *
  * State.  The canonical z of each lane is kept between the steps of one
  * advance, so that the map applied is exactly the symplectic map; X, p_par
@@ -122,7 +124,8 @@ static int lu_n(double *a, int *piv, int n)
     return 0;
 }
 
-static void lu_solve(const double *a, const int *piv, int n, double *x)
+static inline __attribute__((always_inline)) void lu_solve(const double *a, const int *piv,
+                                                            int n, double *x)
 {
     for (int k = 0; k < n; k++) {
         const double t = x[k];
@@ -361,27 +364,57 @@ static void gl_lagrange(const double *x, int m, double xi, double *w)
     }
 }
 
-/* The chart point at xi (in units of h from the start of the step) by the
- * polynomial through the kept points: without cur, the stage points of the
- * last two steps (nodes c_j - 2, c_j - 1, as far as kept) and the start
+/* The nodes (in units of h from the start of the step) of the points that
+ * gl_points_extrap interpolates: without cur, the stage points of the last
+ * two steps (nodes c_j - 2, c_j - 1, as far as kept: have_P) and the start
  * (node 0); with cur (this step's stage points, nodes c_j), the last step's
- * stage points, the start and cur. */
-static void gl_points_extrap(const struct gl_tableau *T, const struct gl_lane *L,
-                             const double cur[GL_SMAX][2], double xi, double *out)
+ * stage points, the start and cur.  Returns their count. */
+static int gl_extrap_nodes(const struct gl_tableau *T, int have_P, int cur, double *x)
 {
     const int s = T->s;
-    double x[3 * GL_SMAX + 1], v[3 * GL_SMAX + 1][2], w[3 * GL_SMAX + 1];
     int m = 0;
-    for (int j = 0; j < s && !cur && L->have_P >= 2; j++, m++)
-        x[m] = T->c[j] - 2.0, v[m][0] = L->pst2[j][0], v[m][1] = L->pst2[j][1];
-    for (int j = 0; j < s && L->have_P >= 1; j++, m++)
-        x[m] = T->c[j] - 1.0, v[m][0] = L->aux[1 + j][0], v[m][1] = L->aux[1 + j][1];
-    x[m] = 0.0, v[m][0] = L->aux[0][0], v[m][1] = L->aux[0][1], m++;
-    for (int j = 0; j < s && cur; j++, m++)
-        x[m] = T->c[j], v[m][0] = cur[j][0], v[m][1] = cur[j][1];
-    gl_lagrange(x, m, xi, w);
+    for (int j = 0; j < s && !cur && have_P >= 2; j++) x[m++] = T->c[j] - 2.0;
+    for (int j = 0; j < s && have_P >= 1; j++) x[m++] = T->c[j] - 1.0;
+    x[m++] = 0.0;
+    for (int j = 0; j < s && cur; j++) x[m++] = T->c[j];
+    return m;
+}
+
+void gcp_gl_ctx_weights(struct gl_ctx *C)
+{
+    const struct gl_tableau *T = C->tab;
+    double x[3 * GL_SMAX + 1];
+    for (int cur = 0; cur < 2; cur++)
+        for (int hp = 0; hp < 3; hp++)
+            for (int i = 0; i <= T->s; i++) {
+                const int m = gl_extrap_nodes(T, hp, cur, x);
+                gl_lagrange(x, m, i < T->s ? T->c[i] : 1.0, C->wext[cur][hp][i]);
+            }
+    C->have_wext = 1;
+}
+
+/* The chart point at node xi = c_wi (wi < s) or 1 (wi = s) by the
+ * polynomial through the kept points (gl_extrap_nodes), with the weights
+ * of gcp_gl_ctx_weights where C has them. */
+static void gl_points_extrap(const struct gl_ctx *C, const struct gl_lane *L,
+                             const double cur[GL_SMAX][2], int wi, double *out)
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s, hp = L->have_P < 2 ? L->have_P : 2;
+    double x[3 * GL_SMAX + 1], v[3 * GL_SMAX + 1][2], wl[3 * GL_SMAX + 1];
+    const int m = gl_extrap_nodes(T, hp, cur != NULL, x);
+    const double *w = wl;
+    if (C->have_wext) w = C->wext[cur != NULL][hp][wi];
+    else gl_lagrange(x, m, wi < s ? T->c[wi] : 1.0, wl);
+    int a = 0;
+    for (int j = 0; j < s && !cur && hp >= 2; j++, a++)
+        v[a][0] = L->pst2[j][0], v[a][1] = L->pst2[j][1];
+    for (int j = 0; j < s && hp >= 1; j++, a++)
+        v[a][0] = L->aux[1 + j][0], v[a][1] = L->aux[1 + j][1];
+    v[a][0] = L->aux[0][0], v[a][1] = L->aux[0][1], a++;
+    for (int j = 0; j < s && cur; j++, a++) v[a][0] = cur[j][0], v[a][1] = cur[j][1];
     out[0] = out[1] = 0.0;
-    for (int a = 0; a < m; a++) out[0] += w[a] * v[a][0], out[1] += w[a] * v[a][1];
+    for (int k = 0; k < m; k++) out[0] += w[k] * v[k][0], out[1] += w[k] * v[k][1];
 }
 
 /* Stage i evaluated at the chart point p with P_eta: sample o, rates g, qd. */
@@ -419,17 +452,50 @@ static int gl_lift_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
 }
 
 /* J (gl_assemble) and its inverse, column by column from the LU. */
-static int gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
+int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
 {
     const int n = 2 * C->tab->s;
     if (gl_assemble(C, L, h)) return -1;
     for (int c = 0; c < n; c++) {
         double col[4] = {0.0, 0.0, 0.0, 0.0};
         col[c] = 1.0;
-        lu_solve(L->J, L->piv, n, col);
+        /* n constant in each branch: the solve is unrolled */
+        if (n == 4) lu_solve(L->J, L->piv, 4, col);
+        else lu_solve(L->J, L->piv, 2, col);
         for (int r = 0; r < n; r++) L->Jinv[n * r + c] = col[r];
     }
     return 0;
+}
+
+/* The start of a lifted step: predicted slopes K and stage points p; the
+ * stage points are those of the last two steps (nodes c_j - 2, c_j - 1)
+ * and the start point (node 0) extrapolated to c_i.  0 or -1. */
+int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                      const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2])
+{
+    if (!(L->sc_pphi > 0.0) || gl_predict(C, k, L, K)) return -1;
+    for (int i = 0; i < C->tab->s; i++) gl_points_extrap(C, L, NULL, i, p[i]);
+    return 0;
+}
+
+/* The end of a converged lifted step (gl_finish), then the end point's
+ * guess for from_canon: the polynomial through the last step's stage
+ * points, the start and this step's stages at 1; and the stage points kept
+ * for the next predictor. */
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
+                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                     const double p[GL_SMAX][2])
+{
+    const struct gl_tableau *T = C->tab;
+    gl_finish(T, L, h, K, pd);
+    double pe[2];
+    gl_points_extrap(C, L, p, T->s, pe);
+    memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
+    for (int r = 0; r < 2; r++) {
+        L->aux[0][r] = pe[r];
+        for (int j = 0; j < T->s; j++) L->aux[1 + j][r] = p[j][r];
+    }
+    L->have_P = L->have_P ? 2 : 1;
 }
 
 /* One step by the lifted solver (charts with lift_eval; see the header). */
@@ -440,10 +506,7 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
     const int s = T->s, n = 2 * s;
     double K[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], Pe[GL_SMAX];
     struct gcp_canon_lift o[GL_SMAX];
-    if (!(L->sc_pphi > 0.0) || gl_predict(C, k, L, K)) return GCP_STEP_FAILED;
-    /* stage points: those of the last two steps (nodes c_j - 2, c_j - 1)
-     * and the start point (node 0) extrapolated to c_i */
-    for (int i = 0; i < s; i++) gl_points_extrap(T, L, NULL, T->c[i], p[i]);
+    if (gcp_gl_lift_begin(C, k, L, K, p)) return GCP_STEP_FAILED;
     /* DF at the first iterate of every step (one field evaluation a stage),
      * kept through the step (a simplified Newton) */
     double nprev = INFINITY;
@@ -460,7 +523,7 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         if (it == 0) {
             for (int i = 0; i < s; i++)
                 if (gl_lift_df(C, k, L, i, p[i], Pe[i], &o[i], g[i])) return GCP_STEP_FAILED;
-            if (gl_lift_jinv(C, L, h)) return GCP_STEP_FAILED;
+            if (gcp_gl_lift_jinv(C, L, h)) return GCP_STEP_FAILED;
         }
         /* K_i + d_i = F(point_i) + DF_i (e_i + h (A d)_i, h (A d)_i^P) */
         double G[4], d[4], nd = 0.0;
@@ -505,18 +568,7 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
         if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
         if (nd <= GL_TOL || next_below || stalled) {
-            gl_finish(T, L, h, K, pd);
-            /* the end point's guess for from_canon: the polynomial through
-             * the last step's stage points, the start and this step's stages
-             * at 1; then the stage points kept for the next predictor */
-            double pe[2];
-            gl_points_extrap(T, L, p, 1.0, pe);
-            memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
-            for (int r = 0; r < 2; r++) {
-                L->aux[0][r] = pe[r];
-                for (int j = 0; j < s; j++) L->aux[1 + j][r] = p[j][r];
-            }
-            L->have_P = L->have_P ? 2 : 1;
+            gcp_gl_lift_end(C, L, h, K, pd, p);
             return 0;
         }
         nprev = nd;
@@ -527,10 +579,10 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
 /* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged).
  * The lifted solver where the chart has lift_eval, the inverting one where
  * it has not or where the lifted one fails (a guess too far off). */
-int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
-                      double h)
+static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                         struct gl_lane *L, double h, int lift)
 {
-    if (C->chart.lift_eval && C->sundman_a == 0.0) {
+    if (lift && C->chart.lift_eval && C->sundman_a == 0.0) {
         /* gl_step_lift changes only the Jacobian fields of L until it succeeds */
         if (gl_step_lift(C, k, L, h) == 0) return 0;
         L->have_J = 0;
@@ -539,6 +591,12 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
     /* its aux[1 + i] are this step's stage points, aux[0] the start's */
     if (!r) L->have_P = 1;
     return r;
+}
+
+int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                      double h)
+{
+    return gl_step_canon(C, k, L, h, 1);
 }
 
 int gcp_gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t, void *vlane)
@@ -575,15 +633,12 @@ int gcp_gl_init(const void *vctx, const struct gcp_block *b, size_t i, double t,
     return 0;
 }
 
-static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, double h,
-                   void *vlane)
+int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, double h,
+                     struct gl_lane *L, int lift)
 {
-    (void)t;
-    const struct gl_ctx *C = vctx;
-    struct gl_lane *L = vlane;
     const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
     const struct gl_lane save = *L;
-    int r = gcp_gl_step_canon(C, &k, L, h), why = r ? L->fail : GCP_FAIL_NONE;
+    int r = gl_step_canon(C, &k, L, h, lift), why = r ? L->fail : GCP_FAIL_NONE;
     double X[3], ppar;
     if (!r) {
         r = C->chart.from_canon(&C->chart, &k, L->z, L->aux[0], X, &ppar);
@@ -600,15 +655,27 @@ static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, do
     return 0;
 }
 
-static const struct gcp_gc_lane_ops gl_ops = {sizeof(struct gl_lane), gcp_gl_init, gl_step};
+static int gl_step(const void *vctx, struct gcp_block *b, size_t i, double t, double h,
+                   void *vlane)
+{
+    (void)t;
+    return gcp_gl_step_lane(vctx, b, i, h, vlane, 1);
+}
+
+static const struct gcp_gc_lane_ops gl_ops = {sizeof(struct gl_lane), gcp_gl_init, gl_step,
+                                              NULL};
+/* charts with a block lift evaluation: the lifted solve over the block */
+static const struct gcp_gc_lane_ops gl_block_ops = {sizeof(struct gl_lane), gcp_gl_init, gl_step,
+                                                    gcp_gl_step_block};
 
 static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
                          const struct gcp_sampler *s, const struct gl_tableau *tab)
 {
     (void)p;
-    struct gl_ctx C = {tab, {0}, 0.0};
+    struct gl_ctx C = {.tab = tab};
     char why[256];
+    gcp_gl_ctx_weights(&C);
     if (gcp_canon_chart_create(f, &C.chart, why, sizeof why)) {
         /* the scene refuses such runs before they start (gcp_pusher_type.applies);
          * a library caller gets STEP_FAILED on every lane */
@@ -617,7 +684,8 @@ static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
         b->n_active = gcp_block_retire(b, n, o->t0, 0);
         return b->n_active;
     }
-    const size_t n = gcp_gc_lanes_advance(b, f, o, s, &gl_ops, &C);
+    const size_t n =
+        gcp_gc_lanes_advance(b, f, o, s, C.chart.lift_eval_block ? &gl_block_ops : &gl_ops, &C);
     gcp_canon_chart_destroy(&C.chart);
     return n;
 }

@@ -4,6 +4,7 @@
 #define GCPUSH_GC_GAUSS_PRIV_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "gcpush/pusher.h"
 #include "canon_priv.h"
@@ -20,7 +21,14 @@ struct gl_ctx {
     const struct gl_tableau *tab;
     struct gcp_canon_chart chart;
     double sundman_a; /* [1] exponent of w = (B_ref/|B|)^a; 0: plain time steps */
+    /* Lagrange weights of the lifted solver's point predictor (gc_gauss.c
+     * gl_points_extrap) by [with this step's points][have_P][node], filled
+     * once by gcp_gl_ctx_weights (have_wext = 0: computed at each use) */
+    double wext[2][3][GL_SMAX + 1][3 * GL_SMAX + 1];
+    int have_wext;
 };
+/* Fills C->wext (C->tab set). */
+void gcp_gl_ctx_weights(struct gl_ctx *C);
 
 struct gl_lane {
     double z[4];                /* canonical state */
@@ -52,6 +60,25 @@ int gcp_gl_init(const void *ctx, const struct gcp_block *b, size_t i, double t, 
  * L: 0, or GCP_STEP_FAILED with L unchanged. */
 int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
                       double h);
+/* gcp_gl_step_canon's step of block lane i with the lane's end state
+ * written back (X, p_par; the gcp_gc_lane_ops.step contract); lift = 0
+ * skips the lifted solver (the block solver's fallback). */
+int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, double h,
+                     struct gl_lane *L, int lift);
+/* Pieces of the lifted solver shared with gc_gauss_block.c: its start
+ * (predicted slopes K, stage points p; 0 or -1), J and J^-1 from L->DF
+ * (0 or -1), and its end (a converged step's slopes K, quadrature rates pd
+ * and stage points p into L). */
+int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                      const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2]);
+int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h);
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
+                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                     const double p[GL_SMAX][2]);
+/* The lifted solve over the n live lanes of b at once (gc_gauss_block.c;
+ * gcp_gc_lane_ops.step_block), the per-lane path for lanes it fails. */
+int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,
+                          unsigned char *lanes);
 /* gcp_pusher_type.applies of the methods that need a canonical chart. */
 int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
 

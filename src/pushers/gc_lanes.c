@@ -28,6 +28,14 @@ static int lanes_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block 
     return c->ops->step(c->ctx, b, i, t, h, lane);
 }
 
+static int32_t lanes_block(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
+                           double t, double h, unsigned char *lanes)
+{
+    (void)ev;
+    const struct lanes_ctx *c = vctx;
+    return c->ops->step_block(c->ctx, b, n, t, h, lanes);
+}
+
 size_t gcp_gc_lanes_advance(struct gcp_block *b, const struct gcp_field *f,
                             const struct gcp_push_opts *o, const struct gcp_sampler *s,
                             const struct gcp_gc_lane_ops *ops, const void *ctx)
@@ -36,8 +44,9 @@ size_t gcp_gc_lanes_advance(struct gcp_block *b, const struct gcp_field *f,
         .gc = 1,
         .lane_size = ops->lane_size,
         .init = lanes_init,
-        .start = gcp_evolve_gc_check,
+        .start = ops->step_block ? gcp_gc_check_block : gcp_evolve_gc_check,
         .step_lane = lanes_step,
+        .step_lanes = ops->step_block ? lanes_block : NULL,
     };
     struct lanes_ctx c = {ops, ctx};
     return gcp_evolve(b, f, o, s, &st, &c);

@@ -481,7 +481,8 @@ static int vi_lane_step(const void *vctx, struct gcp_block *b, size_t i, double 
     return 0;
 }
 
-static const struct gcp_gc_lane_ops vi_ops = {sizeof(struct vi_lane), vi_init, vi_lane_step};
+static const struct gcp_gc_lane_ops vi_ops = {sizeof(struct vi_lane), vi_init, vi_lane_step,
+                                              NULL};
 
 /* The whole vector potential with its derivatives: a property of the model
  * (gcp_gc_potential answers by model for dA), so any point will do. */

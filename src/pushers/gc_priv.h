@@ -53,6 +53,10 @@ struct gcp_gc_lane_ops {
     size_t lane_size; /* [bytes] of one lane's solver state */
     int (*init)(const void *ctx, const struct gcp_block *b, size_t i, double t, void *lane);
     int (*step)(const void *ctx, struct gcp_block *b, size_t i, double t, double h, void *lane);
+    /* Optional (NULL: step lane by lane): the step of the n live lanes at
+     * once, lane i's state at lanes + i lane_size (gcp_stepper.step_lanes). */
+    int32_t (*step_block)(const void *ctx, struct gcp_block *b, size_t n, double t, double h,
+                          unsigned char *lanes);
 };
 size_t gcp_gc_lanes_advance(struct gcp_block *b, const struct gcp_field *f,
                             const struct gcp_push_opts *o, const struct gcp_sampler *s,

@@ -286,6 +286,38 @@ static int32_t rk4_step(const struct gcp_evolve *ev, void *ctx, struct gcp_block
     return 0;
 }
 
+/* gcp_evolve_gc_check over the block (the start-of-step check of the
+ * per-lane guiding-centre methods whose step is a block solve, gc_lanes.c):
+ * stage 1's evaluation, whose verdicts are gcp_gc_eval's (see rhs_consts),
+ * without keeping k1. */
+int32_t gcp_gc_check_block(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                           double t, int first)
+{
+    (void)ctx;
+    if (first) return 0;
+    const double mc = b->m * GCP_C_LIGHT, amax = ev->o->adiabaticity_max;
+    const struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT),
+                                  1.0 / b->m};
+    struct rk4_chunk *c = aligned_alloc(64, (sizeof *c + 63) / 64 * 64);
+    if (!c) return gcp_evolve_gc_check(ev, ctx, b, n, t, first);
+    int32_t any = 0;
+    for (size_t i0 = 0; i0 < n; i0 += CHUNK) {
+        const size_t m = n - i0 < CHUNK ? n - i0 : CHUNK;
+        memcpy(c->X, b->x + i0, m * sizeof(double));
+        memcpy(c->Y, b->y + i0, m * sizeof(double));
+        memcpy(c->Z, b->z + i0, m * sizeof(double));
+        memcpy(c->P, b->ppar + i0, m * sizeof(double));
+        stage_eval(c, m, ev->f, t, ev->need, b->mu + i0, &kc, RHS_STORE, NULL);
+        if (amax > 0.0) adiabaticity_chunk(c, m, b->mu + i0, b->q, b->m, amax);
+        for (size_t i = 0; i < m; i++) {
+            b->fstatus[i0 + i] = c->code[i];
+            any |= c->code[i];
+        }
+    }
+    free(c);
+    return any;
+}
+
 static const struct gcp_stepper rk4_stepper = {
     .gc = 1,
     .work_size = rk4_work_size,

@@ -187,7 +187,7 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
 {
     size_t n = gcp_gc_block_begin(b, f, o);
     if (n == 0) return 0;
-    struct gl_ctx C = {tab, {0}, GCP_SUNDMAN_A};
+    struct gl_ctx C = {.tab = tab, .sundman_a = GCP_SUNDMAN_A};
     struct sd_lane *S = NULL;
     const int chart = gcp_canon_chart_create(f, &C.chart, NULL, 0) == 0 && C.chart.field_strength;
     if (chart) S = malloc(b->n * sizeof *S);

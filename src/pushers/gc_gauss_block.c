@@ -1,0 +1,460 @@
+/* The lifted Gauss-Legendre solve of gc-gl2 / gc-gl4 (gc_gauss.c, "Lifted
+ * solver") over the live lanes of a block at once (issue 11, performance).
+ *
+ * Why.  Lane by lane, each Newton iteration evaluates the field at the s
+ * stage points of one lane through the chart's lift_eval: a chain of
+ * divisions and square roots that the CPU executes one point at a time.
+ * Here the lanes' states are laid out as structs of arrays, and every
+ * iteration evaluates the stage points of all lanes of a chunk of up to
+ * GB_BLK through the chart's lift_eval_block (the field's block evaluation
+ * and one branch-free loop the compiler vectorises); the Newton update is
+ * another such loop.  A running mask (ASCOT5 style) records which lanes have
+ * converged or failed: their values are computed but not taken, so the loops
+ * stay branch free, and the iteration ends when no lane is iterating.
+ *
+ * The map is that of gl_step_lift, operation for operation (the same
+ * predictor and points, gcp_gl_lift_begin; the same DF; the same J^-1 as
+ * gcp_gl_lift_jinv, its LU with partial pivoting written with selects over
+ * the lanes, gb_jinv; the same update, convergence and abandon tests; the
+ * same end, gcp_gl_lift_end): each lane's numbers are those of the
+ * per-lane solver (runs/dipole.run's output is bit-identical).  A lane
+ * whose lifted solve fails (predictor, a chart evaluation, a singular J, an
+ * update that stops contracting, 40 iterations) takes the per-lane path
+ * without the lifted solver (gcp_gl_step_lane, lift = 0: the inverting
+ * solver from the start of the step), exactly as gl_step_lift's failure
+ * does lane by lane.  The start-of-step check (gcp_gc_check_block) and the
+ * end point's mapping back (the chart's from_canon_block) are block
+ * evaluations too.
+ */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gcpush/error.h"
+#include "gcpush/particles.h"
+#include "block_priv.h"
+#include "canon_priv.h"
+#include "gc_gauss_priv.h"
+
+#define GB_BLK 64
+#define GL_MAXIT 40
+#define GL_TOL 1e-15
+#define GL_FD 1e-7
+#define GL_LIFT_FLOOR 1e-13
+#define NP (GL_SMAX * GB_BLK) /* points of a chunk: stage i of lane j at i m + j */
+
+enum { GB_ITER, GB_DONE, GB_FAIL };
+
+/* The outputs of one block lift evaluation. */
+struct gb_eval {
+    double Pphi[NP], eta[NP], H[NP], dH1[NP], dH2[NP], dH3[NP], Bm[NP], dBm1[NP], dBm2[NP];
+    double dp00[NP], dp01[NP], dp10[NP], dp11[NP];
+    int32_t st[NP];
+};
+
+static void gb_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, size_t np,
+                    const double *mu, const double *R, const double *Z, const double *Pe,
+                    struct gb_eval *e)
+{
+    const struct gcp_canon_lift_soa o = {e->Pphi, e->eta,  e->H,    e->dH1,  e->dH2,
+                                         e->dH3,  e->Bm,   e->dBm1, e->dBm2, e->dp00,
+                                         e->dp01, e->dp10, e->dp11};
+    C->chart.lift_eval_block(&C->chart, k, np, mu, R, Z, Pe, &o, e->st);
+}
+
+/* The stage Jacobians DF of lane L (gl_lift_df's numbers) from the sample
+ * at its stage points (e, index x + i m) and at the points moved along
+ * dp/deta (e2): 0 or -1. */
+static int gb_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                 const struct gb_eval *e, const struct gb_eval *e2, size_t x, size_t m,
+                 const double *Pe)
+{
+    for (int i = 0; i < C->tab->s; i++) {
+        const size_t q = x + (size_t)i * m;
+        struct gcp_canon_lift o = {0};
+        o.Pphi = e->Pphi[q], o.eta = e->eta[q], o.Bm = e->Bm[q];
+        o.dBm[1] = e->dBm1[q], o.dBm[2] = e->dBm2[q];
+        const double g[2] = {e->dH3[q], -e->dH1[q]};
+        double H2, dH2[4];
+        const double P2 = Pe[q] + GL_FD * L->sc[1], dP = P2 - Pe[q];
+        if (C->chart.lift_ham(&C->chart, k, &o, P2, &H2, dH2)) return -1;
+        L->DF[i][0][1] = (dH2[3] - g[0]) / dP;
+        L->DF[i][1][1] = (-dH2[1] - g[1]) / dP;
+        if (e2->st[q]) return -1;
+        const double de = e2->eta[q] - e->eta[q];
+        L->DF[i][0][0] = (e2->dH3[q] - g[0]) / de;
+        L->DF[i][1][0] = (-e2->dH1[q] - g[1]) / de;
+        if (!isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1]))
+            return -1;
+    }
+    return 0;
+}
+
+/* The chunk's state (struct of arrays; lane j of the chunk, stage i at
+ * i m + j) and its scratch. */
+struct gb_chunk {
+    double mu[NP], R[NP], Z[NP], Pe[NP], eta[NP], K0[NP], K1[NP], pd[NP];
+    double R2[NP], Z2[NP];
+    double DFe0[NP], DFe1[NP]; /* the eta column of DF */
+    double DF[GL_SMAX][2][2][GB_BLK];
+    double Jinv[16][GB_BLK], z1[GB_BLK], z2[GB_BLK], z3[GB_BLK];
+    double sc0[GB_BLK], sc1[GB_BLK], scp[GB_BLK], nprev[GB_BLK], nd[GB_BLK];
+    double d[4][GB_BLK], e[GL_SMAX][GB_BLK];
+    unsigned char state[GB_BLK];
+    struct gb_eval ev, ev2;
+    /* the end points mapped back (from_canon_block) */
+    double ze[4][GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
+    int32_t mapped[GB_BLK];
+    size_t idx[GB_BLK];
+    struct gl_lane save[GB_BLK]; /* the converged lanes before their ends */
+};
+
+/* J = delta_ij I - h a_ij DF_i and J^-1 of every lane of the chunk (the
+ * numbers of gcp_gl_lift_jinv: gl_assemble, the LU with partial pivoting
+ * of lu_n and lu_solve of each unit vector), the pivot choices and row
+ * swaps by selects, so that the loops over the lanes vectorise; a lane
+ * whose pivot is 0 or not finite fails (lu_n's -1).  They stay in the
+ * chunk: a lane's own J, Jinv are not written (every lifted step builds
+ * them anew, and a lane that falls back has have_J = 0 first, so the
+ * inverting solver never reuses them). */
+static inline __attribute__((always_inline)) void
+gb_jinv_s(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h, int s)
+{
+    const int n = 2 * s;
+    double A[16][GB_BLK];
+    int piv[4][GB_BLK];
+    int bad[GB_BLK];
+    for (int i = 0; i < s; i++)
+        for (int jj = 0; jj < s; jj++)
+            for (int r = 0; r < 2; r++)
+                for (int col = 0; col < 2; col++) {
+                    const double dl = i == jj && r == col ? 1.0 : 0.0, ha = h * T->a[i][jj];
+                    double *a = A[n * (2 * i + r) + 2 * jj + col];
+                    for (size_t j = 0; j < m; j++) a[j] = dl - ha * c->DF[i][r][col][j];
+                }
+    for (size_t j = 0; j < m; j++) bad[j] = 0;
+    for (int k = 0; k < n; k++) {
+        for (size_t j = 0; j < m; j++) {
+            int pk = k;
+            double best = fabs(A[n * k + k][j]);
+            for (int i = k + 1; i < n; i++) {
+                const double v = fabs(A[n * i + k][j]);
+                const int take = v > best;
+                pk = take ? i : pk;
+                best = take ? v : best;
+            }
+            piv[k][j] = pk;
+        }
+        for (int i = k + 1; i < n; i++)
+            for (size_t j = 0; j < m; j++) {
+                const int sw = piv[k][j] == i;
+                for (int col = 0; col < n; col++) {
+                    const double t = A[n * k + col][j], u = A[n * i + col][j];
+                    A[n * k + col][j] = sw ? u : t;
+                    A[n * i + col][j] = sw ? t : u;
+                }
+            }
+        for (size_t j = 0; j < m; j++) {
+            const double p = A[n * k + k][j];
+            bad[j] |= !(p != 0.0) | !(fabs(p) <= DBL_MAX);
+        }
+        for (int i = k + 1; i < n; i++)
+            for (size_t j = 0; j < m; j++) {
+                const double l = A[n * i + k][j] / A[n * k + k][j];
+                A[n * i + k][j] = l;
+                for (int col = k + 1; col < n; col++) A[n * i + col][j] -= l * A[n * k + col][j];
+            }
+    }
+    for (int col = 0; col < n; col++)
+        for (size_t j = 0; j < m; j++) {
+            double x[4];
+            for (int r = 0; r < n; r++) x[r] = r == col ? 1.0 : 0.0;
+            for (int k = 0; k < n; k++) {
+                const double t = x[k];
+                for (int i = k + 1; i < n; i++) {
+                    const int sw = piv[k][j] == i;
+                    const double u = x[i];
+                    x[k] = sw ? u : x[k];
+                    x[i] = sw ? t : u;
+                }
+            }
+            for (int k = 0; k < n; k++)
+                for (int i = k + 1; i < n; i++) x[i] -= A[n * i + k][j] * x[k];
+            for (int k = n - 1; k >= 0; k--) {
+                for (int jj = k + 1; jj < n; jj++) x[k] -= A[n * k + jj][j] * x[jj];
+                x[k] /= A[n * k + k][j];
+            }
+            for (int r = 0; r < n; r++) c->Jinv[n * r + col][j] = x[r];
+        }
+    for (size_t j = 0; j < m; j++)
+        c->state[j] = bad[j] && c->state[j] == GB_ITER ? GB_FAIL : c->state[j];
+}
+
+/* s constant in each branch: the loops over the matrix entries unroll and
+ * those over the lanes vectorise */
+static void gb_jinv(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h)
+{
+    if (T->s == 2) gb_jinv_s(T, c, m, h, 2);
+    else gb_jinv_s(T, c, m, h, 1);
+}
+
+/* One Newton iteration's update over the chunk (gl_step_lift's, lane by
+ * lane the same operations): the updates d = J^-1 G, their norm nd, and the
+ * points and slopes moved, for the lanes still iterating (act). */
+static void gb_update(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h)
+{
+    const int s = T->s, n = 2 * s;
+    const struct gb_eval *o = &c->ev;
+    for (int i = 0; i < s; i++) {
+        const size_t q0 = (size_t)i * m;
+        for (size_t j = 0; j < m; j++) c->e[i][j] = c->eta[q0 + j] - o->eta[q0 + j];
+    }
+    double G[4][GB_BLK];
+    for (int i = 0; i < s; i++) {
+        const size_t q0 = (size_t)i * m;
+        for (size_t j = 0; j < m; j++) {
+            const size_t q = q0 + j;
+            G[2 * i][j] = o->dH3[q] - c->K0[q] + c->DFe0[q] * c->e[i][j];
+            G[2 * i + 1][j] = -o->dH1[q] - c->K1[q] + c->DFe1[q] * c->e[i][j];
+        }
+    }
+    for (int r = 0; r < n; r++)
+        for (size_t j = 0; j < m; j++) {
+            double acc = 0.0;
+            for (int col = 0; col < n; col++) acc += c->Jinv[n * r + col][j] * G[col][j];
+            c->d[r][j] = acc;
+        }
+    for (size_t j = 0; j < m; j++) c->nd[j] = 0.0;
+    for (int i = 0; i < s; i++) {
+        const size_t q0 = (size_t)i * m;
+        for (size_t j = 0; j < m; j++) {
+            double ae = 0.0, aP = 0.0;
+            for (int jj = 0; jj < s; jj++)
+                ae += T->a[i][jj] * c->d[2 * jj][j], aP += T->a[i][jj] * c->d[2 * jj + 1][j];
+            /* fmax(nd, x) as a select (x > nd ? x : nd: the same for every
+             * x, NaN included, as nd is never NaN), which vectorises */
+            const double x0 = fabs(c->e[i][j] + h * ae) / c->sc0[j];
+            const double x1 = fabs(h * aP) / c->sc1[j];
+            const double x2 = fabs(c->z2[j] - o->Pphi[q0 + j]) / c->scp[j];
+            double nd = c->nd[j];
+            nd = x0 > nd ? x0 : nd;
+            nd = x1 > nd ? x1 : nd;
+            nd = x2 > nd ? x2 : nd;
+            c->nd[j] = nd;
+        }
+    }
+    for (int i = 0; i < s; i++) {
+        const size_t q0 = (size_t)i * m;
+        for (size_t j = 0; j < m; j++) {
+            const size_t q = q0 + j;
+            const int act = c->state[j] == GB_ITER;
+            double ae = 0.0;
+            for (int jj = 0; jj < s; jj++) ae += T->a[i][jj] * c->d[2 * jj][j];
+            const double dPphi = c->z2[j] - o->Pphi[q], deta = c->e[i][j] + h * ae;
+            const double R = c->R[q] + (o->dp00[q] * dPphi + o->dp01[q] * deta);
+            const double Z = c->Z[q] + (o->dp10[q] * dPphi + o->dp11[q] * deta);
+            c->R[q] = act ? R : c->R[q];
+            c->Z[q] = act ? Z : c->Z[q];
+            c->pd[q] = act ? o->dH2[q] : c->pd[q];
+        }
+    }
+    for (int i = 0; i < s; i++) {
+        const size_t q0 = (size_t)i * m;
+        for (size_t j = 0; j < m; j++) {
+            const int act = c->state[j] == GB_ITER;
+            const size_t q = q0 + j;
+            c->K0[q] = act ? c->K0[q] + c->d[2 * i][j] : c->K0[q];
+            c->K1[q] = act ? c->K1[q] + c->d[2 * i + 1][j] : c->K1[q];
+        }
+    }
+}
+
+/* The lifted solve of the m lanes L[0 .. m) (block lanes i0 ..); the
+ * lanes it cannot step take the per-lane path.  Non-zero when a lane failed. */
+static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_block *b,
+                        size_t i0, size_t m, double h, struct gl_lane *L)
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s;
+    struct gcp_gc_consts k = {b->q, b->m, 0.0};
+    const size_t np = (size_t)s * m;
+    for (size_t j = 0; j < m; j++) {
+        double K[GL_SMAX][2], p[GL_SMAX][2];
+        k.mu = b->mu[i0 + j];
+        c->state[j] = gcp_gl_lift_begin(C, &k, &L[j], K, p) ? GB_FAIL : GB_ITER;
+        c->z1[j] = L[j].z[1], c->z2[j] = L[j].z[2], c->z3[j] = L[j].z[3];
+        c->sc0[j] = L[j].sc[0], c->sc1[j] = L[j].sc[1], c->scp[j] = L[j].sc_pphi;
+        c->nprev[j] = INFINITY;
+        for (int i = 0; i < s; i++) {
+            const size_t q = (size_t)i * m + j;
+            const int ok = c->state[j] == GB_ITER;
+            c->mu[q] = k.mu;
+            c->K0[q] = ok ? K[i][0] : 0.0, c->K1[q] = ok ? K[i][1] : 0.0;
+            c->R[q] = ok ? p[i][0] : L[j].aux[0][0], c->Z[q] = ok ? p[i][1] : L[j].aux[0][1];
+            c->pd[q] = 0.0;
+        }
+    }
+    size_t left = m;
+    for (int it = 0; it < GL_MAXIT && left > 0; it++) {
+        for (int i = 0; i < s; i++) {
+            const size_t q0 = (size_t)i * m;
+            for (size_t j = 0; j < m; j++) {
+                double eta = 0.0, P = 0.0;
+                for (int jj = 0; jj < s; jj++) {
+                    eta += T->a[i][jj] * c->K0[(size_t)jj * m + j];
+                    P += T->a[i][jj] * c->K1[(size_t)jj * m + j];
+                }
+                c->eta[q0 + j] = c->z1[j] + h * eta;
+                c->Pe[q0 + j] = c->z3[j] + h * P;
+            }
+        }
+        gb_lift(C, &k, np, c->mu, c->R, c->Z, c->Pe, &c->ev);
+        for (size_t j = 0; j < m; j++)
+            for (int i = 0; i < s; i++)
+                if (c->state[j] == GB_ITER && c->ev.st[(size_t)i * m + j]) c->state[j] = GB_FAIL;
+        if (it == 0) {
+            /* DF at the first iterate (gl_lift_df): the eta column from the
+             * points moved by GL_FD sc0 along dp/deta */
+            for (int i = 0; i < s; i++) {
+                const size_t q0 = (size_t)i * m;
+                for (size_t j = 0; j < m; j++) {
+                    const size_t q = q0 + j;
+                    const double e = GL_FD * c->sc0[j];
+                    c->R2[q] = c->R[q] + c->ev.dp01[q] * e;
+                    c->Z2[q] = c->Z[q] + c->ev.dp11[q] * e;
+                }
+            }
+            gb_lift(C, &k, np, c->mu, c->R2, c->Z2, c->Pe, &c->ev2);
+            for (size_t j = 0; j < m; j++) {
+                if (c->state[j] != GB_ITER) continue;
+                k.mu = b->mu[i0 + j];
+                if (gb_df(C, &k, &L[j], &c->ev, &c->ev2, j, m, c->Pe)) {
+                    c->state[j] = GB_FAIL;
+                    continue;
+                }
+                for (int i = 0; i < s; i++)
+                    for (int r = 0; r < 2; r++)
+                        for (int col = 0; col < 2; col++) c->DF[i][r][col][j] = L[j].DF[i][r][col];
+            }
+            for (size_t j = 0; j < m; j++) /* the failed lanes' J: I (not used) */
+                for (int i = 0; i < s; i++)
+                    for (int r = 0; r < 2; r++)
+                        for (int col = 0; col < 2; col++)
+                            c->DF[i][r][col][j] = c->state[j] == GB_ITER ? c->DF[i][r][col][j] : 0.0;
+            gb_jinv(T, c, m, h);
+            for (int i = 0; i < s; i++)
+                for (size_t j = 0; j < m; j++) {
+                    c->DFe0[(size_t)i * m + j] = c->DF[i][0][0][j];
+                    c->DFe1[(size_t)i * m + j] = c->DF[i][1][0][j];
+                }
+        }
+        gb_update(T, c, m, h);
+        /* the mask: gl_step_lift's convergence and abandon tests */
+        left = 0;
+        for (size_t j = 0; j < m; j++) {
+            if (c->state[j] != GB_ITER) continue;
+            const double nd = c->nd[j];
+            if (!isfinite(nd)) {
+                c->state[j] = GB_FAIL;
+                continue;
+            }
+            const double th = nd / c->nprev[j];
+            const int next_below = it > 0 && th < 1.0 && th / (1.0 - th) * nd <= GL_TOL;
+            const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
+            if (it > 1 && th > 0.5 && !stalled) c->state[j] = GB_FAIL;
+            else if (nd <= GL_TOL || next_below || stalled) c->state[j] = GB_DONE;
+            else left++;
+            c->nprev[j] = nd;
+        }
+    }
+    /* the converged lanes' ends (gl_finish and the rest), then their end
+     * points mapped back together where the chart can (from_canon_block) */
+    for (size_t j = 0; j < m; j++) {
+        if (c->state[j] != GB_DONE) continue;
+        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2];
+        for (int st = 0; st < s; st++) {
+            const size_t q = (size_t)st * m + j;
+            K[st][0] = c->K0[q], K[st][1] = c->K1[q];
+            pd[st][0] = c->pd[q], pd[st][1] = 1.0;
+            p[st][0] = c->R[q], p[st][1] = c->Z[q];
+        }
+        c->save[j] = L[j];
+        gcp_gl_lift_end(C, &L[j], h, K, pd, p);
+        c->mapped[j] = 0;
+    }
+    if (C->chart.from_canon_block) {
+        size_t nd = 0;
+        for (size_t j = 0; j < m; j++)
+            if (c->state[j] == GB_DONE) c->idx[nd++] = j;
+        /* the done lanes packed at the front */
+        for (size_t a = 0; a < nd; a++) {
+            const size_t j = c->idx[a];
+            for (int r = 0; r < 4; r++) c->ze[r][a] = L[j].z[r];
+            c->a0[a] = L[j].aux[0][0], c->a1[a] = L[j].aux[0][1];
+        }
+        const double *const zp[4] = {c->ze[0], c->ze[1], c->ze[2], c->ze[3]};
+        double *const Xp[3] = {c->Xe[0], c->Xe[1], c->Xe[2]};
+        C->chart.from_canon_block(&C->chart, &k, nd, zp, c->a0, c->a1, Xp, c->pe, c->mapped);
+        for (size_t a = nd; a-- > 0;) {
+            const size_t j = c->idx[a];
+            const int32_t ok = c->mapped[a];
+            c->mapped[a] = 0;
+            c->mapped[j] = ok;
+            if (!ok) continue;
+            L[j].aux[0][0] = c->a0[a], L[j].aux[0][1] = c->a1[a];
+            const size_t i = i0 + j;
+            b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
+            b->ppar[i] = c->pe[a];
+            b->fstatus[i] = 0;
+        }
+    }
+    int32_t failed = 0;
+    for (size_t j = 0; j < m; j++) {
+        const size_t i = i0 + j;
+        int r = 0;
+        if (c->state[j] == GB_DONE) {
+            if (c->mapped[j]) continue;
+            double X[3], ppar;
+            const struct gcp_gc_consts kj = {b->q, b->m, b->mu[i]};
+            r = C->chart.from_canon(&C->chart, &kj, L[j].z, L[j].aux[0], X, &ppar);
+            if (r) {
+                /* nothing of the failed step is kept (gl_step) */
+                L[j] = c->save[j];
+                r = r == GCP_NONFINITE ? r : gcp_lane_fail(b, i, GCP_FAIL_CHART);
+            } else {
+                b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
+                b->ppar[i] = ppar;
+                b->fstatus[i] = 0;
+            }
+        } else {
+            /* the lifted solve failed (or did not converge): the per-lane
+             * inverting solver from the start of the step */
+            L[j].have_J = 0;
+            r = gcp_gl_step_lane(C, b, i, h, &L[j], 0);
+        }
+        if (r) b->status[i] = r, failed = 1;
+    }
+    return failed;
+}
+
+int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,
+                          unsigned char *lanes)
+{
+    (void)t;
+    const struct gl_ctx *C = ctx;
+    struct gl_lane *L = (struct gl_lane *)(void *)lanes;
+    struct gb_chunk *c = aligned_alloc(64, (sizeof *c + 63) / 64 * 64);
+    int32_t failed = 0;
+    if (!c) {
+        for (size_t i = 0; i < n; i++) {
+            const int r = gcp_gl_step_lane(C, b, i, h, &L[i], 1);
+            if (r) b->status[i] = r, failed = 1;
+        }
+        return failed;
+    }
+    for (size_t i0 = 0; i0 < n; i0 += GB_BLK)
+        failed |= gb_chunk(C, c, b, i0, n - i0 < GB_BLK ? n - i0 : GB_BLK, h, L + i0);
+    free(c);
+    return failed;
+}
