@@ -64,21 +64,6 @@ static void sys_dipole(struct psys *s)
  * third sign change of p_par under gc-rk8pd (tolerance 1e-12), by linear
  * interpolation between samples 1e-4 T_guess apart (error ~1e-8 T_b; the
  * checks below only need "one bounce", not its exact length). */
-struct bctx {
-    double tprev, pprev, tc[3];
-    int nc;
-};
-
-static int bounce_cb(double t, const double X[3], double ppar, void *v)
-{
-    (void)X;
-    struct bctx *c = v;
-    if (c->pprev * ppar < 0 && c->nc < 3)
-        c->tc[c->nc++] = c->tprev + (t - c->tprev) * c->pprev / (c->pprev - ppar);
-    c->tprev = t, c->pprev = ppar;
-    return c->nc == 3;
-}
-
 static void set_tokamak_like(struct psys *s, double T, double xi, double R, double Z, int N)
 {
     s->q = GCP_E_CHARGE, s->m = GCP_M_PROTON;
@@ -87,10 +72,10 @@ static void set_tokamak_like(struct psys *s, double T, double xi, double R, doub
     s->ppar = p * xi;
     s->mu = p * p * (1 - xi * xi) / (2 * s->m * gc_Bmag(s->f, s->X));
     const double Tguess = 2 * GCP_PI * 2.0 * R / (p / s->m * 0.3);
-    struct bctx c = {0, s->ppar, {0}, 0};
+    struct gc_bounce_ctx c = {0, s->ppar, {0}, 0};
     double X[3] = {R, 0.0, Z}, pp = s->ppar, t = 0;
     const struct gcp_push_opts o = {0.0, 1e-4 * Tguess, 100000, 0.0, 0.0};
-    gcp_gc_push(s->f, &gcp_pusher_gc_rk8pd, s->q, s->m, &o, &t, X, &pp, s->mu, bounce_cb, &c);
+    gcp_gc_push(s->f, &gcp_pusher_gc_rk8pd, s->q, s->m, &o, &t, X, &pp, s->mu, gc_bounce_cb, &c);
     cr_assert_eq(c.nc, 3, "%s: no bounce", s->name);
     s->Tb = c.tc[2] - c.tc[0];
     s->N = N;

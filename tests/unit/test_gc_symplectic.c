@@ -155,18 +155,7 @@ static double sympl_residual(const struct sys *S, const struct gcp_canon_chart *
         if (one_step(S, ch, p, h, zp, z1p) || one_step(S, ch, p, h, zm, z1m)) return NAN;
         for (int i = 0; i < 4; i++) M[i][j] = (z1p[i] - z1m[i]) / (zp[j] - zm[j]);
     }
-    /* J: dz/dt = J grad H, J = [[0, I], [-I, 0]] */
-    static const double J[4][4] = {{0, 0, 1, 0}, {0, 0, 0, 1}, {-1, 0, 0, 0}, {0, -1, 0, 0}};
-    const double act[2] = {sc[0] * sc[2], sc[1] * sc[3]};
-    double res = 0.0;
-    for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++) {
-            double r = -J[i][j];
-            for (int a = 0; a < 4; a++)
-                for (int b = 0; b < 4; b++) r += M[a][i] * J[a][b] * M[b][j];
-            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(act[i % 2] * act[j % 2]));
-        }
-    return res;
+    return gc_symplectic_residual(M, sc);
 }
 
 /* For each system and h = T_b / N, N = 25, 50, 100, 200 (25 to 200 steps per

@@ -28,27 +28,12 @@ struct fsys {
  * p_par under gc-rk8pd (tolerance 1e-12), located by linear interpolation
  * between samples 1e-4 T_guess apart (error ~1e-8 T_b, far below what the
  * tests need: the step h = T_b/N only sets the resolution). */
-struct bctx {
-    double tprev, pprev, tc[3];
-    int nc;
-};
-
-static int bounce_cb(double t, const double X[3], double ppar, void *v)
-{
-    (void)X;
-    struct bctx *c = v;
-    if (c->pprev * ppar < 0 && c->nc < 3)
-        c->tc[c->nc++] = c->tprev + (t - c->tprev) * c->pprev / (c->pprev - ppar);
-    c->tprev = t, c->pprev = ppar;
-    return c->nc == 3;
-}
-
 static double bounce_period(const struct fsys *S, double Tguess)
 {
-    struct bctx c = {0, S->ppar, {0}, 0};
+    struct gc_bounce_ctx c = {0, S->ppar, {0}, 0};
     double X[3] = {S->X[0], S->X[1], S->X[2]}, pp = S->ppar, t = 0;
     const struct gcp_push_opts o = {0.0, 1e-4 * Tguess, 100000, 0.0, 0.0};
-    gcp_gc_push(S->f, &gcp_pusher_gc_rk8pd, S->k.q, S->k.m, &o, &t, X, &pp, S->k.mu, bounce_cb,
+    gcp_gc_push(S->f, &gcp_pusher_gc_rk8pd, S->k.q, S->k.m, &o, &t, X, &pp, S->k.mu, gc_bounce_cb,
                 &c);
     cr_assert_eq(c.nc, 3, "%s: no bounce within %g s", S->name, 10 * Tguess);
     return c.tc[2] - c.tc[0];
@@ -137,17 +122,7 @@ static double sympl_residual(const struct fsys *S, const struct gcp_pusher_type 
         }
         for (int i = 0; i < 4; i++) M[i][j] = (4.0 * D[0][i] - D[1][i]) / 3.0;
     }
-    static const double J[4][4] = {{0, 0, 1, 0}, {0, 0, 0, 1}, {-1, 0, 0, 0}, {0, -1, 0, 0}};
-    const double act[2] = {sc[0] * sc[2], sc[1] * sc[3]};
-    double res = 0.0;
-    for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++) {
-            double r = -J[i][j];
-            for (int a = 0; a < 4; a++)
-                for (int b = 0; b < 4; b++) r += M[a][i] * J[a][b] * M[b][j];
-            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(act[i % 2] * act[j % 2]));
-        }
-    return res;
+    return gc_symplectic_residual(M, sc);
 }
 
 /* h = T_b / N, N = 25 .. 200.  Scales: 1 rad for phi and eta; for the

@@ -265,4 +265,44 @@ static inline double gc_rec_mirror_lat(const struct gc_rec *r)
     return NAN;
 }
 
+
+/* ---- canonical-map checks (test_gc_symplectic*.c) ---- */
+
+/* max |(M^T J M - J)_ij| of a one-step Jacobian M in canonical z = (phi,
+ * eta, P_phi, P_eta), each entry scaled by sc_i sc_j / sqrt(action_i
+ * action_j) with the actions sc[0] sc[2] and sc[1] sc[3], so that the
+ * residual is relative for every pair (J: dz/dt = J grad H). */
+static inline double gc_symplectic_residual(const double M[4][4], const double sc[4])
+{
+    static const double J[4][4] = {{0, 0, 1, 0}, {0, 0, 0, 1}, {-1, 0, 0, 0}, {0, -1, 0, 0}};
+    const double act[2] = {sc[0] * sc[2], sc[1] * sc[3]};
+    double res = 0.0;
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double r = -J[i][j];
+            for (int a = 0; a < 4; a++)
+                for (int b = 0; b < 4; b++) r += M[a][i] * J[a][b] * M[b][j];
+            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(act[i % 2] * act[j % 2]));
+        }
+    return res;
+}
+
+/* The first three sign changes of p_par along an orbit (a gcp_gc_push
+ * callback; stops the push at the third), each by linear interpolation
+ * between the samples around it: two of them bracket one bounce. */
+struct gc_bounce_ctx {
+    double tprev, pprev, tc[3];
+    int nc;
+};
+
+static inline int gc_bounce_cb(double t, const double X[3], double ppar, void *v)
+{
+    (void)X;
+    struct gc_bounce_ctx *c = v;
+    if (c->pprev * ppar < 0 && c->nc < 3)
+        c->tc[c->nc++] = c->tprev + (t - c->tprev) * c->pprev / (c->pprev - ppar);
+    c->tprev = t, c->pprev = ppar;
+    return c->nc == 3;
+}
+
 #endif
