@@ -12,6 +12,7 @@ mkdir -p "$LIM"
 cp "$SRC/limit_bench.c" "$SRC/Makefile" "$LIM/"
 make -s -C "$LIM" limit_bench >/dev/null
 ours=$("$BIN/bench_push" limit "$SCALE")
+echo "$ours" >"$BIN/limit_rows.txt"
 lim=$(cd "$LIM" && OMP_PROC_BIND=close ./limit_bench bench -q -r 3 -t 1 -k bc | grep '| resident | 1 |')
 kb=$(echo "$lim" | awk -F'|' '/\(b\)/ {gsub(/ /,"",$6); print $6}')
 kc=$(echo "$lim" | awk -F'|' '/\(c\)/ {gsub(/ /,"",$6); print $6}')
