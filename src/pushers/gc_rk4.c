@@ -17,8 +17,22 @@
  * over the struct-of-arrays values (gcp_gc_rhs inlined, has_E decided once
  * per push by choosing the loop).  No indirect call per lane, no branch on
  * the stage number inside a lane loop; the status of each lane is computed
- * with arithmetic selects.  The operations and their order are those of the
- * scalar path (gcp_gc_eval), so results are bit-identical to it. */
+ * with arithmetic selects into an int16_t array, so that the vectoriser
+ * takes 32 lanes per iteration (four independent AVX-512 vectors per double
+ * operation: their chains hide the latency of the square roots and the
+ * division, as the hand kernels of the limit benchmark interleave).  The
+ * right-hand side is rearranged from the scalar path's (see rhs_consts), so
+ * results agree with it to round-off (tests/unit/test_gc_block.c).
+ *
+ * Where the time goes (1024 protons in the dipole, CPU time, ~15.8 ns a
+ * particle-step): each of the 4 stages ~3.8 ns, of which the dipole's block
+ * evaluation with grad B ~1.1 ns (1 sqrt, 2 divisions, 12 arrays written)
+ * and the right-hand side ~2.7 ns (2 sqrt, 1 division, ~125 other
+ * operations without FMA contraction); the evolve layer's begin, classify
+ * and retire ~0.4 ns.  Measured and not kept: fusing the field evaluation
+ * into the right-hand-side loop (no gain), CHUNK 32 .. 256 (96 and 128
+ * best), FMA contraction (~3-6%, moves the last bits), 64 lanes per
+ * iteration (int8_t: register spills, 50% slower). */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -41,7 +55,14 @@ struct rk4_chunk {
     double k[4][CHUNK];   /* stage derivative dX/dt [m/s], dp_par/dt [N] */
     double acc[4][CHUNK]; /* k1 + 2 k2 + 2 k3 + k4 so far */
     int32_t fs[CHUNK];    /* the field's status of this stage */
-    int32_t code[CHUNK];  /* this stage's verdict (gcp_gc_eval's) */
+    /* Stage 1: its verdict (gcp_gc_eval's); stages 2 to 4: the step's
+     * verdict so far (the first non-zero one).  Statuses are small enum
+     * gcp_status values; int16_t because the narrowest type in a loop sets
+     * how many lanes the vectoriser takes per iteration: with it, 32, i.e.
+     * four independent AVX-512 vectors per double operation, whose
+     * independent chains hide the latency of the square roots and the
+     * division (int32_t: 16 lanes, 2 vectors, ~13% slower). */
+    int16_t code[CHUNK];
 };
 
 /* The guiding-centre right-hand side of kernels.h gcp_gc_rhs (Cary &
@@ -70,14 +91,14 @@ struct rhs_consts {
 
 /* What to do with the derivative of a stage (constant at each call):
  * STORE it in c->k with the verdict in c->code (stage 1), or, in stages 2
- * to 4, ACCumulate w k into c->acc, merge the verdict into the lanes'
- * fstatus and, but for the last stage, write the NEXT stage's state
- * y0 + cn k into c->X .. c->P (one pass instead of four). */
+ * to 4, ACCumulate w k into c->acc, merge the verdict into c->code (the
+ * step's, written to the lanes' fstatus after stage 4) and, but for the
+ * last stage, write the NEXT stage's state y0 + cn k into c->X .. c->P
+ * (one pass instead of four). */
 enum { RHS_STORE, RHS_ACC, RHS_ACC_NEXT };
 struct rhs_fuse {
     double w, cn;                       /* weight of this k in acc; next stage's offset [s] */
     const double *x0, *y0, *z0, *p0;    /* the step's start state */
-    int32_t *fst;                       /* the lanes' fstatus */
 };
 
 static inline __attribute__((always_inline)) void
@@ -87,7 +108,6 @@ rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
     const double w = fu ? fu->w : 0.0, cn = fu ? fu->cn : 0.0;
     const double *restrict x0 = fu ? fu->x0 : NULL, *restrict y0 = fu ? fu->y0 : NULL;
     const double *restrict z0 = fu ? fu->z0 : NULL, *restrict p0 = fu ? fu->p0 : NULL;
-    int32_t *restrict fst = fu ? fu->fst : NULL;
     const double iq = kc->iq, q = kc->q, imc = kc->imc, k2 = kc->k2, im = kc->im;
     for (size_t i = 0; i < m; i++) {
         const double Bx = c->B[0][i], By = c->B[1][i], Bz = c->B[2][i];
@@ -130,14 +150,14 @@ rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
         const int32_t code = fs + (fs == 0) * own;
         if (mode == RHS_STORE) {
             c->k[0][i] = dX, c->k[1][i] = dY, c->k[2][i] = dZ, c->k[3][i] = dp;
-            c->code[i] = code;
+            c->code[i] = (int16_t)code;
         } else {
             c->acc[0][i] = c->acc[0][i] + w * dX;
             c->acc[1][i] = c->acc[1][i] + w * dY;
             c->acc[2][i] = c->acc[2][i] + w * dZ;
             c->acc[3][i] = c->acc[3][i] + w * dp;
-            const int32_t s0 = fst[i];
-            fst[i] = s0 + (s0 == 0) * code;
+            const int32_t s0 = c->code[i];
+            c->code[i] = (int16_t)(s0 + (s0 == 0) * code);
             if (mode == RHS_ACC_NEXT) {
                 c->X[i] = x0[i] + cn * dX;
                 c->Y[i] = y0[i] + cn * dY;
@@ -217,7 +237,7 @@ static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double
 }
 
 /* Stages 2 to 4 and the update of the chunk of lanes [i0, i0 + m). */
-static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk *c,
+static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk *restrict c,
                       const double *k1, const struct gcp_field *f, double t, double h,
                       unsigned need, const struct rhs_consts *kc)
 {
@@ -226,6 +246,7 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
     const double *restrict p = b->ppar + i0, *restrict mu = b->mu + i0;
     const double *restrict k1x = k1 + i0, *restrict k1y = k1 + N + i0;
     const double *restrict k1z = k1 + 2 * N + i0, *restrict k1p = k1 + 3 * N + i0;
+    int32_t *restrict fst = b->fstatus + i0;
     const double c2 = 0.5 * h; /* k2's offset */
     for (size_t i = 0; i < m; i++) {
         c->acc[0][i] = 0.0 + 1.0 * k1x[i];
@@ -237,8 +258,9 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
         c->Z[i] = z[i] + c2 * k1z[i];
         c->P[i] = p[i] + c2 * k1p[i];
     }
+    for (size_t i = 0; i < m; i++) c->code[i] = (int16_t)fst[i];
     /* k2 at t + h/2 (weight 2, next offset h/2), k3 at t + h/2 (2, h), k4 at t + h (1) */
-    struct rhs_fuse fu = {2.0, 0.5 * h, x, y, z, p, b->fstatus + i0};
+    struct rhs_fuse fu = {2.0, 0.5 * h, x, y, z, p};
     stage_eval(c, m, f, t + 0.5 * h, need, mu, kc, RHS_ACC_NEXT, &fu);
     fu.cn = 1.0 * h;
     stage_eval(c, m, f, t + 0.5 * h, need, mu, kc, RHS_ACC_NEXT, &fu);
@@ -253,6 +275,7 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
         zo[i] = zo[i] + h6 * c->acc[2][i];
         po[i] = po[i] + h6 * c->acc[3][i];
     }
+    for (size_t i = 0; i < m; i++) fst[i] = c->code[i];
 }
 
 /* gc-rk4 on the evolve layer: stage 1 is the start-of-step check (k1 and
