@@ -242,8 +242,11 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
                       unsigned need, const struct rhs_consts *kc)
 {
     const size_t N = b->n;
-    const double *restrict x = b->x + i0, *restrict y = b->y + i0, *restrict z = b->z + i0;
-    const double *restrict p = b->ppar + i0, *restrict mu = b->mu + i0;
+    /* One restrict pointer per state array, for the reads and the update:
+     * two restrict pointers to one array, one of them written, is undefined. */
+    double *restrict x = b->x + i0, *restrict y = b->y + i0, *restrict z = b->z + i0;
+    double *restrict p = b->ppar + i0;
+    const double *restrict mu = b->mu + i0;
     const double *restrict k1x = k1 + i0, *restrict k1y = k1 + N + i0;
     const double *restrict k1z = k1 + 2 * N + i0, *restrict k1p = k1 + 3 * N + i0;
     int32_t *restrict fst = b->fstatus + i0;
@@ -267,13 +270,11 @@ static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk
     fu.w = 1.0;
     stage_eval(c, m, f, t + 1.0 * h, need, mu, kc, RHS_ACC, &fu);
     const double h6 = h / 6.0;
-    double *restrict xo = b->x + i0, *restrict yo = b->y + i0, *restrict zo = b->z + i0;
-    double *restrict po = b->ppar + i0;
     for (size_t i = 0; i < m; i++) {
-        xo[i] = xo[i] + h6 * c->acc[0][i];
-        yo[i] = yo[i] + h6 * c->acc[1][i];
-        zo[i] = zo[i] + h6 * c->acc[2][i];
-        po[i] = po[i] + h6 * c->acc[3][i];
+        x[i] = x[i] + h6 * c->acc[0][i];
+        y[i] = y[i] + h6 * c->acc[1][i];
+        z[i] = z[i] + h6 * c->acc[2][i];
+        p[i] = p[i] + h6 * c->acc[3][i];
     }
     for (size_t i = 0; i < m; i++) fst[i] = c->code[i];
 }
