@@ -42,17 +42,38 @@
  *     the same drift phase at 63 deg, 2.8-3.8x at 75 deg.  a = 1/8 does as
  *     well at 63 deg and worse (1.5-1.9x) at 71 deg, a = 1/3 worse at
  *     both; a = 1/2 needs more steps than fixed.
- *   - a period (bounce or drift: a bounce average) gains less.  The period
- *     error of a symplectic method is the bounce average of its modified
- *     Hamiltonian, spread over the whole orbit; and the transformed
- *     method's energy error, ds^4 (K_4(z0) - K_4(z)) / w, is largest where
- *     w is smallest, at the mirror points the period depends on.  Scanned
- *     over w = |B|^-a e^(-b ln^2|B|): at 63 deg no smooth w gives a robust
- *     gain in T_d (a = 1/8: 1.2-1.3x, a = 1/4: 1.0x; isolated values of
- *     (a, b) that cancel the leading error term of one orbit do not
- *     carry over to another); at 75 deg, 2.7x at 1e-4 of T_d (the fixed
- *     step's Newton solve fails at the mirror point below ~190 steps per
- *     bounce, the transformed one runs from ~30) and 1.2-1.9x at 1e-6.
+ *   - a period (bounce or drift: a bounce average) gains less at moderate
+ *     mirror latitudes.  The period error of a symplectic method is the
+ *     bounce average of its modified Hamiltonian, spread over the whole
+ *     orbit; and the transformed method's energy error, ds^4 (K_4(z0) -
+ *     K_4(z)) / w, is largest where w is smallest, at the mirror points the
+ *     period depends on.  Scanned over w = |B|^-a e^(-b ln^2|B|): at 63 deg
+ *     no smooth w gives a robust gain in T_d (a = 1/8: 1.2-1.3x, a = 1/4:
+ *     0.94-1.1x; isolated values of (a, b) that cancel the leading error
+ *     term of one orbit do not carry over to another).
+ *   - the gain in the drift period grows with the mirror latitude, and
+ *     passes the issue's 3x from ~80 deg (steps of the best fixed gc-gl4
+ *     step / s-steps, for T_d to 1e-4 / 1e-5 / 1e-6; the fewest steps from
+ *     which the accuracy holds on, test_gc_sundman.c sd_fewest):
+ *       63 deg  1.10 / 0.94 / 0.94     70 deg  1.55 / 1.33 / 1.23
+ *       75 deg  2.74 / 2.01 / 1.71     80 deg  5.83 / 4.44 / 3.00
+ *       81 deg  7.49 / 4.87 / 3.29     82 deg  8.21 / 7.31 / 4.57
+ *     (at 80 deg a = 1/8, 0.15, 0.2, 1/3, 0.4, 1/2 were scanned too, by
+ *     the first step count that meets the accuracy: 0.2 needs 22% more
+ *     steps at 1e-4 and 8-11% fewer at 1e-5 and 1e-6, every other a more
+ *     at every accuracy: 1/8 and 1/3 1.2-2x, 1/2 7x).  The fixed step is set by the mirror point: it
+ *     fails its Newton solve there below ~400 (80 deg) / ~650 (82 deg)
+ *     steps per bounce, and above that its period error changes sign from
+ *     one step size to the next (the mirror point falls between steps
+ *     differently on each bounce) up to ~750 / ~1000 steps per bounce,
+ *     while the transformed step, 23x shorter at an 82-deg mirror point
+ *     than at the equator, runs from ~30 nominal steps per bounce with an
+ *     error that falls smoothly as ds^4.  In CPU time the gain is smaller:
+ *     a transformed step costs ~3.7x a fixed one (4.9 against 1.3 us per
+ *     lane: the lifted Newton solve of gc_gauss.c is not used with the
+ *     transformation), so at 82 deg and 1e-6 the same T_d costs 1.2x less
+ *     CPU time per lane, and more than the fixed step on the block solver
+ *     (gc_gauss_block.c, ~0.35 us a step).
  *     A barely trapped tokamak orbit (100 keV proton, analytic tokamak,
  *     v_par/v = 0.563 at r = a/2, bounce period twice a deep banana's):
  *     w = (|B|/B_ref)^2 or ^4 (larger steps at the turning points, where
@@ -61,14 +82,14 @@
  *     ~v sqrt(eps/2)/(q R)) is of the order of the transit's
  *     (~v sqrt(2 eps)/(q R)); only the time spent is longer.
  * So a = 1/4: the steps follow the local error, the orbit's phase is 2-4x
- * cheaper on deeply mirroring orbits, and the steps run where fixed ones
- * fail at the mirror point.  The issue's goal, the same drift-period
- * accuracy in 3x fewer steps, is not reached (2.7x at best, at 1e-4).
+ * cheaper in steps on orbits mirroring at 63-75 deg, the drift period 3-8x
+ * from 80 deg up, and the steps run where fixed ones fail at the mirror
+ * point.
  * When to use it: orbits that mirror where |B| is >= ~100x its minimum
  * (dipole mirror latitudes above ~60 deg: loss-cone and near-loss-cone
- * particles), for trajectories, phases and anything that needs the orbit's
- * position at given times; not for tokamak orbits (|B| varies by ~1.5x:
- * plain gc-gl4 is as good), nor to speed up periods alone.
+ * particles; periods gain from ~75 deg, |B| >= ~7000x), for trajectories,
+ * phases and anything that needs the orbit's position at given times; not
+ * for tokamak orbits (|B| varies by ~1.5x: plain gc-gl4 is as good).
  *
  * Output times.  The lanes run on their own clocks; at each sampling time
  * (and at the end, t0 + nsteps dt) a lane lands exactly: its last s-step
