@@ -4,7 +4,8 @@
  * methods (gc_lanes.c: gc-gl2, gc-gl4, gc-midpoint-pphi); and, with its
  * own slicing at the sampling times and the GSL error control, the adaptive
  * methods whose lanes choose their own steps (gc_adaptive.c: gc-rk45,
- * gc-rk8pd; fo_rk8pd.c). */
+ * gc-rk8pd; fo_rk8pd.c) and the Sundman methods, whose lanes run on their
+ * own clocks with no GSL stepper (gc_sundman.c). */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -140,21 +141,25 @@ size_t gcp_evolve_adaptive(struct gcp_block *b, const struct gcp_field *f,
         .need = GCP_NEED_B | (st->gc ? GCP_NEED_GRADB : 0u) | (f->has_E ? GCP_NEED_E : 0u),
         .has_E = f->has_E,
         .t_end = o->t0 + (double)o->nsteps * o->dt,
-        .gsl_step = gsl_odeiv2_step_alloc(st->type, st->dim),
-        .gsl_control = gsl_odeiv2_control_y_new(tol, tol),
-        .gsl_evolve = gsl_odeiv2_evolve_alloc(st->dim),
+        .gsl_step = st->type ? gsl_odeiv2_step_alloc(st->type, st->dim) : NULL,
+        .gsl_control = st->type ? gsl_odeiv2_control_y_new(tol, tol) : NULL,
+        .gsl_evolve = st->type ? gsl_odeiv2_evolve_alloc(st->dim) : NULL,
     };
     unsigned char *L = malloc((b->n + 1) * sz);
-    if (st->dim > ADAPTIVE_DIM_MAX || !ev.gsl_step || !ev.gsl_control || !ev.gsl_evolve || !L)
-        n = gcp_evolve_fail_all(b, n, o->t0, GCP_FAIL_NO_MEMORY);
+    const int gsl_ok = !st->type || (st->dim <= ADAPTIVE_DIM_MAX && ev.gsl_step &&
+                                     ev.gsl_control && ev.gsl_evolve);
+    if (!gsl_ok || !L) n = gcp_evolve_fail_all(b, n, o->t0, GCP_FAIL_NO_MEMORY);
     unsigned char *tmp = L ? L + b->n * sz : NULL;
     gsl_error_handler_t *old = gsl_set_error_handler_off();
     const int64_t every = s && s->fn && s->every > 0 ? s->every : 0;
     const int64_t chunk = every ? every : (o->nsteps > 0 ? o->nsteps : 1);
+    int init_failed = 0;
     for (size_t i = 0; i < n; i++) {
         b->t[i] = o->t0;
-        st->init(&ev, ctx, b, i, L + i * sz);
+        const int r = st->init(&ev, ctx, b, i, L + i * sz);
+        if (r) b->status[i] = r, init_failed = 1;
     }
+    if (init_failed) n = adaptive_retire(b, L, sz, tmp, n);
     for (int64_t k = 0; k < o->nsteps && n > 0; k += chunk) {
         const int64_t kn = k + chunk < o->nsteps ? k + chunk : o->nsteps;
         const double t1 = kn == o->nsteps ? ev.t_end : o->t0 + (double)kn * o->dt;

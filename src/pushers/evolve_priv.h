@@ -192,21 +192,23 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
 }
 
 /* Adaptive methods whose lanes each choose their own steps (gc-rk45,
- * gc-rk8pd, fo-rk8pd): the evolve layer owns begin (as above; a full
- * orbit's options are checked too), the lane states, the slicing of the
- * push at the sampling times t0 + j every dt (or one slice to t_end),
- * retirement of lanes that stopped (each with its own time and steps), the
- * sampler, and the GSL error control (gcp_evolve_adaptive_step: one
- * accepted step, or a failure with its reason).  The method supplies init
- * (its lane state at t0; b->t[i] = t0 already) and run: lane i advanced to
- * t1 (or its stop before t1), its state, b->t[i] and b->steps[i] written;
- * returns 0 (alive at t1) or the lane's status (STEP_FAILED with a reason
- * in b->step_failure[i]). */
+ * gc-rk8pd, fo-rk8pd; gc-gl2/gl4-sundman, whose lanes run on their own
+ * clocks): the evolve layer owns begin (as above; a full orbit's options
+ * are checked too), the lane states, the slicing of the push at the
+ * sampling times t0 + j every dt (or one slice to t_end), retirement of
+ * lanes that stopped (each with its own time and steps), the sampler, and
+ * the GSL error control (gcp_evolve_adaptive_step: one accepted step, or a
+ * failure with its reason; none when type is NULL).  The method supplies
+ * init (its lane state at t0; b->t[i] = t0 already; 0 or the lane's status,
+ * the lane then retires at t0) and run: lane i advanced to t1 (or its stop
+ * before t1), its state, b->t[i] and b->steps[i] written; returns 0 (alive
+ * at t1) or the lane's status (STEP_FAILED with a reason in
+ * b->step_failure[i]). */
 struct gcp_adaptive_stepper {
     int gc;                            /* [bool] guiding-centre state */
     size_t lane_size;                  /* [bytes] of one lane's state */
-    const gsl_odeiv2_step_type *type;  /* GSL stepper */
-    size_t dim;                        /* ODE dimension */
+    const gsl_odeiv2_step_type *type;  /* GSL stepper; NULL: the method steps itself */
+    size_t dim;                        /* ODE dimension (GSL) */
     double tol_default;                /* [1] when opts->tolerance is 0 */
     int (*init)(const struct gcp_evolve *ev, void *ctx, const struct gcp_block *b, size_t i,
                 void *lane);

@@ -42,17 +42,38 @@
  *     the same drift phase at 63 deg, 2.8-3.8x at 75 deg.  a = 1/8 does as
  *     well at 63 deg and worse (1.5-1.9x) at 71 deg, a = 1/3 worse at
  *     both; a = 1/2 needs more steps than fixed.
- *   - a period (bounce or drift: a bounce average) gains less.  The period
- *     error of a symplectic method is the bounce average of its modified
- *     Hamiltonian, spread over the whole orbit; and the transformed
- *     method's energy error, ds^4 (K_4(z0) - K_4(z)) / w, is largest where
- *     w is smallest, at the mirror points the period depends on.  Scanned
- *     over w = |B|^-a e^(-b ln^2|B|): at 63 deg no smooth w gives a robust
- *     gain in T_d (a = 1/8: 1.2-1.3x, a = 1/4: 1.0x; isolated values of
- *     (a, b) that cancel the leading error term of one orbit do not
- *     carry over to another); at 75 deg, 2.7x at 1e-4 of T_d (the fixed
- *     step's Newton solve fails at the mirror point below ~190 steps per
- *     bounce, the transformed one runs from ~30) and 1.2-1.9x at 1e-6.
+ *   - a period (bounce or drift: a bounce average) gains less at moderate
+ *     mirror latitudes.  The period error of a symplectic method is the
+ *     bounce average of its modified Hamiltonian, spread over the whole
+ *     orbit; and the transformed method's energy error, ds^4 (K_4(z0) -
+ *     K_4(z)) / w, is largest where w is smallest, at the mirror points the
+ *     period depends on.  Scanned over w = |B|^-a e^(-b ln^2|B|): at 63 deg
+ *     no smooth w gives a robust gain in T_d (a = 1/8: 1.2-1.3x, a = 1/4:
+ *     0.94-1.1x; isolated values of (a, b) that cancel the leading error
+ *     term of one orbit do not carry over to another).
+ *   - the gain in the drift period grows with the mirror latitude, and
+ *     passes the issue's 3x from ~80 deg (steps of the best fixed gc-gl4
+ *     step / s-steps, for T_d to 1e-4 / 1e-5 / 1e-6; the fewest steps from
+ *     which the accuracy holds on, test_gc_sundman.c sd_fewest):
+ *       63 deg  1.10 / 0.94 / 0.94     70 deg  1.55 / 1.33 / 1.23
+ *       75 deg  2.74 / 2.01 / 1.71     80 deg  5.83 / 4.44 / 3.00
+ *       81 deg  7.49 / 4.87 / 3.29     82 deg  8.21 / 7.31 / 4.57
+ *     (at 80 deg a = 1/8, 0.15, 0.2, 1/3, 0.4, 1/2 were scanned too, by
+ *     the first step count that meets the accuracy: 0.2 needs 22% more
+ *     steps at 1e-4 and 8-11% fewer at 1e-5 and 1e-6, every other a more
+ *     at every accuracy: 1/8 and 1/3 1.2-2x, 1/2 7x).  The fixed step is set by the mirror point: it
+ *     fails its Newton solve there below ~400 (80 deg) / ~650 (82 deg)
+ *     steps per bounce, and above that its period error changes sign from
+ *     one step size to the next (the mirror point falls between steps
+ *     differently on each bounce) up to ~750 / ~1000 steps per bounce,
+ *     while the transformed step, 23x shorter at an 82-deg mirror point
+ *     than at the equator, runs from ~30 nominal steps per bounce with an
+ *     error that falls smoothly as ds^4.  In CPU time the gain is smaller:
+ *     a transformed step costs ~3.7x a fixed one (4.9 against 1.3 us per
+ *     lane: the lifted Newton solve of gc_gauss.c is not used with the
+ *     transformation), so at 82 deg and 1e-6 the same T_d costs 1.2x less
+ *     CPU time per lane, and more than the fixed step on the block solver
+ *     (gc_gauss_block.c, ~0.35 us a step).
  *     A barely trapped tokamak orbit (100 keV proton, analytic tokamak,
  *     v_par/v = 0.563 at r = a/2, bounce period twice a deep banana's):
  *     w = (|B|/B_ref)^2 or ^4 (larger steps at the turning points, where
@@ -61,16 +82,20 @@
  *     ~v sqrt(eps/2)/(q R)) is of the order of the transit's
  *     (~v sqrt(2 eps)/(q R)); only the time spent is longer.
  * So a = 1/4: the steps follow the local error, the orbit's phase is 2-4x
- * cheaper on deeply mirroring orbits, and the steps run where fixed ones
- * fail at the mirror point.  The issue's goal, the same drift-period
- * accuracy in 3x fewer steps, is not reached (2.7x at best, at 1e-4).
+ * cheaper in steps on orbits mirroring at 63-75 deg, the drift period 3-8x
+ * from 80 deg up, and the steps run where fixed ones fail at the mirror
+ * point.
  * When to use it: orbits that mirror where |B| is >= ~100x its minimum
  * (dipole mirror latitudes above ~60 deg: loss-cone and near-loss-cone
- * particles), for trajectories, phases and anything that needs the orbit's
- * position at given times; not for tokamak orbits (|B| varies by ~1.5x:
- * plain gc-gl4 is as good), nor to speed up periods alone.
+ * particles; periods gain from ~75 deg, |B| >= ~7000x), for trajectories,
+ * phases and anything that needs the orbit's position at given times; not
+ * for tokamak orbits (|B| varies by ~1.5x: plain gc-gl4 is as good).
  *
- * Output times.  The lanes run on their own clocks; at each sampling time
+ * Output times.  The lanes run on their own clocks (the evolve layer's
+ * loop for such methods, gcp_evolve_adaptive with no GSL stepper: begin,
+ * lane states, slicing at the sampling times, retirement, the sampler; this
+ * file supplies the lane's init and its run to the next sampling time); at
+ * each sampling time
  * (and at the end, t0 + nsteps dt) a lane lands exactly: its last s-step
  * before the target is replaced by one of size ds' found by secant iteration
  * so that t(ds') = t_target to 4 ulp (then set to t_target).  That landing
@@ -92,16 +117,12 @@
 #include "gcpush/gc.h"
 #include "gcpush/particles.h"
 #include "block_priv.h"
+#include "evolve_priv.h"
 #include "gc_gauss_priv.h"
 #include "gc_priv.h"
 #include "gc_sundman_priv.h"
 
 #define SD_LAND_MAXIT 12
-
-struct sd_lane {
-    struct gl_lane L;
-    int64_t steps; /* s-steps taken in this advance */
-};
 
 /* After a step: X, p_par into block lane i, and the lane's status there. */
 static int sd_after(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
@@ -150,25 +171,6 @@ static int sd_land(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct
     return GCP_STEP_FAILED;
 }
 
-static size_t sd_retire(struct gcp_block *b, struct sd_lane *S, size_t n)
-{
-    size_t i = 0;
-    while (i < n) {
-        if (b->status[i] != GCP_ALIVE) {
-            b->t[i] = S[i].L.t;
-            b->steps[i] += S[i].steps;
-            gcp_block_swap_lanes(b, i, n - 1);
-            const struct sd_lane tmp = S[i];
-            S[i] = S[n - 1];
-            S[n - 1] = tmp;
-            n--;
-        } else {
-            i++;
-        }
-    }
-    return n;
-}
-
 int gcp_sundman_lane_init(const struct gl_ctx *C, const struct gcp_block *b, size_t i, double t0,
                           struct gl_lane *L)
 {
@@ -181,65 +183,63 @@ int gcp_sundman_lane_init(const struct gl_ctx *C, const struct gcp_block *b, siz
     return st;
 }
 
+/* The evolve layer's init (gcp_evolve_adaptive): the lane in extended
+ * phase space at t0. */
+static int sd_init(const struct gcp_evolve *ev, void *ctx, const struct gcp_block *b, size_t i,
+                   void *lane)
+{
+    const int st = gcp_sundman_lane_init(ctx, b, i, ev->o->t0, lane);
+    return st == 0 || st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
+}
+
+/* The evolve layer's run: lane i by s-steps of ds = dt until it lands on t1
+ * (the last step by sd_land), each step followed by the lane's status at
+ * its new point (sd_after); b->t[i], b->steps[i] written. */
+static int32_t sd_run(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
+                      double t1, void *lane)
+{
+    const struct gl_ctx *C = ctx;
+    struct gl_lane *L = lane;
+    const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
+    const double ds = ev->o->dt;
+    int64_t steps = 0;
+    int st = 0;
+    while (!st && L->t < t1) {
+        /* the next step's dt ~ w ds: land when it would reach the target */
+        double w, aux[2] = {L->aux[0][0], L->aux[0][1]};
+        st = gcp_sundman_w(C, &k, L, aux, &w);
+        if (st) break;
+        if (L->t + 1.5 * ds * w >= t1)
+            st = sd_land(C, &k, L, t1, ds);
+        else
+            st = gcp_gl_step_canon(C, &k, L, ds);
+        if (st) break;
+        steps++;
+        st = sd_after(C, &k, L, b, i, ev->o->adiabaticity_max);
+    }
+    if (st == GCP_STEP_FAILED) st = gcp_lane_fail(b, i, L->fail);
+    b->t[i] = L->t;
+    b->steps[i] += steps;
+    return st;
+}
+
 static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_push_opts *o, const struct gcp_sampler *s,
                          const struct gl_tableau *tab)
 {
-    size_t n = gcp_gc_block_begin(b, f, o);
-    if (n == 0) return 0;
     struct gl_ctx C = {.tab = tab, .sundman_a = GCP_SUNDMAN_A};
-    struct sd_lane *S = NULL;
-    const int chart = gcp_canon_chart_create(f, &C.chart, NULL, 0) == 0 && C.chart.field_strength;
-    if (chart) S = malloc(b->n * sizeof *S);
-    if (!S) {
-        for (size_t i = 0; i < n; i++)
-            b->status[i] = gcp_lane_fail(b, i, chart ? GCP_FAIL_NO_MEMORY : GCP_FAIL_UNSUPPORTED);
-        b->n_active = gcp_block_retire(b, n, o->t0, 0);
+    if (gcp_canon_chart_create(f, &C.chart, NULL, 0) || !C.chart.field_strength) {
         gcp_canon_chart_destroy(&C.chart);
-        return b->n_active;
+        return gcp_evolve_fail_all(b, gcp_gc_block_begin(b, f, o), o->t0, GCP_FAIL_UNSUPPORTED);
     }
-    for (size_t i = 0; i < n; i++) {
-        S[i].steps = 0;
-        const int st = gcp_sundman_lane_init(&C, b, i, o->t0, &S[i].L);
-        if (st) b->status[i] = st == GCP_NONFINITE ? st : GCP_STEP_FAILED;
-    }
-    n = sd_retire(b, S, n);
-    const double ds = o->dt;
-    const int64_t every = s && s->fn && s->every > 0 ? s->every : (o->nsteps > 0 ? o->nsteps : 1);
-    for (int64_t j = every; n > 0 && j - every < o->nsteps; j += every) {
-        const int64_t jj = j < o->nsteps ? j : o->nsteps;
-        const double t_target = o->t0 + (double)jj * o->dt;
-        for (size_t i = 0; i < n; i++) {
-            struct gl_lane *L = &S[i].L;
-            const struct gcp_gc_consts k = {b->q, b->m, b->mu[i]};
-            int st = 0;
-            while (!st && L->t < t_target) {
-                /* the next step's dt ~ w ds: land when it would reach the target */
-                double w, aux[2] = {L->aux[0][0], L->aux[0][1]};
-                st = gcp_sundman_w(&C, &k, L, aux, &w);
-                if (st) break;
-                const double dt_next = ds * w;
-                if (L->t + 1.5 * dt_next >= t_target)
-                    st = sd_land(&C, &k, L, t_target, ds);
-                else
-                    st = gcp_gl_step_canon(&C, &k, L, ds);
-                if (st) break;
-                S[i].steps++;
-                st = sd_after(&C, &k, L, b, i, o->adiabaticity_max);
-            }
-            if (st == GCP_STEP_FAILED) st = gcp_lane_fail(b, i, L->fail);
-            if (st) b->status[i] = st;
-        }
-        n = sd_retire(b, S, n);
-        b->n_active = n;
-        if (s && s->fn && s->every > 0) s->fn(b, t_target, s->ctx);
-    }
-    for (size_t i = 0; i < n; i++) {
-        b->t[i] = S[i].L.t;
-        b->steps[i] += S[i].steps;
-    }
-    b->n_active = n;
-    free(S);
+    const struct gcp_adaptive_stepper st = {
+        .gc = 1,
+        .lane_size = sizeof(struct gl_lane),
+        .type = NULL, /* the steps are the method's: fixed in s */
+        .init = sd_init,
+        .run = sd_run,
+    };
+    const size_t n = gcp_evolve_adaptive(b, f, o, s, &st, &C);
     gcp_canon_chart_destroy(&C.chart);
     return n;
 }
