@@ -87,7 +87,9 @@ static int64_t next_chunk(void *vctx)
 {
     struct run_ctx *c = vctx;
     if (stop_requested) return -1;
+    const double w0 = gcp_phase_clock();
     int64_t k = gcp_par_counter_take(&c->counter);
+    gcp_phase_wait(w0);
     return k < 0 ? -1 : c->todo ? c->todo[k] : k;
 }
 
@@ -349,7 +351,9 @@ static void free_list(char **files, size_t n)
 
 int main(int argc, char **argv)
 {
+    gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
     MPI_Init(&argc, &argv);
+    gcp_phase_mark("init");
     MPI_Comm comm = MPI_COMM_WORLD;
     int me, nranks;
     MPI_Comm_rank(comm, &me);
@@ -408,6 +412,7 @@ int main(int argc, char **argv)
     char **files;
     size_t nfiles;
     int rc = load_scene(arg, restart, &sc, &files, &nfiles, comm, &err);
+    gcp_phase_mark("scene");
     if (rc) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", err.code ? err.msg : "a rank failed to read the run file");
         gcp_scene_free(sc);
@@ -469,6 +474,7 @@ int main(int argc, char **argv)
         MPI_Finalize();
         return EXIT_BAD_INPUT;
     }
+    gcp_phase_mark("checks");
     /* SIGUSR1 too: mpirun forwards it to every rank, whereas it answers
      * SIGINT/SIGTERM by killing the job after a short grace period */
     signal(SIGINT, on_signal);
@@ -523,12 +529,16 @@ int main(int argc, char **argv)
         MPI_Abort(comm, EXIT_RUN_FAILED);
     }
     ctx.t0 = ctx.last_print = ctx.last_ckpt = wall_now();
+    gcp_phase_mark("setup");
     const struct gcp_schedule sched = {next_chunk, chunk_done, &ctx,
                                        (const volatile int *)&stop_requested};
     rc = gcp_scene_push(sc, &res, &sched, &err);
     if (me == 0 && !quiet && ctx.last_print > ctx.t0) progress(&ctx, 1);
+    gcp_phase_mark("push");
+    gcp_phase_busy(res.rank_cpu);
     int64_t pushed, steps_run;
     MPI_Barrier(comm);
+    gcp_phase_mark("idle"); /* waiting for the last chunk of another rank */
     gcp_par_counter_totals(&ctx.counter, &pushed, &steps_run);
     gcp_par_counter_free(&ctx.counter);
     free(ctx.todo);
@@ -558,6 +568,7 @@ int main(int argc, char **argv)
         if (rc == 0) log_step_failures(sc, &res);
         int bad = rc != 0;
         MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+        gcp_phase_mark("sort");
         if (!bad) rc = gcp_output_write(sc, &res, comm, &err);
         if (bad || rc) {
             if (me == 0) fprintf(stderr, "gcpush: %s\n", rc ? err.msg : "out of memory on a rank");
@@ -576,9 +587,13 @@ int main(int argc, char **argv)
             if (!quiet) summary(sc, &res, comm, me, steps_run, wall_now() - ctx.t0);
         }
     }
+    gcp_phase_mark("end");
     gcp_results_free(&res);
     gcp_scene_free(sc);
     free_list(files, nfiles);
+    gcp_phase_mark("free");
     MPI_Finalize();
+    gcp_phase_mark("finalize");
+    gcp_phase_report(me, nranks);
     return status;
 }
