@@ -1,10 +1,13 @@
 /* The output file: one HDF5 file per run, written collectively by every rank
  * through MPI-IO (parallel HDF5).  Layout: DESIGN.md, "HDF5 output".
  *
- * Each rank holds its rows sorted by particle id.  Under MPI the rows are
- * moved first (one Alltoallv per column) so that each rank holds one block
- * of consecutive ids, and one collective H5Dwrite per dataset puts every
- * block in place (struct writer, output_rows.c).  The file is
+ * Each rank holds its rows sorted by particle id and writes them in place
+ * (past ~1000 runs of ids per rank the rows are moved first, one Alltoallv
+ * per column, so that each rank holds one block of consecutive ids: struct
+ * writer, output_rows.c).  Datasets, groups and attributes are created
+ * collectively; the rows of contiguous datasets go in with independent
+ * writes (each rank's own pwrites), only the chunked, deflated
+ * trajectories with collective ones.  The file is
  * written under a temporary name and renamed by rank 0 only when every rank
  * succeeded; otherwise the temporary file is removed. */
 #define _GNU_SOURCE /* fallocate (Linux) */
@@ -161,7 +164,7 @@ static void write_trajectories(struct writer *w)
 /* The event tables (output_events.c) with this writer's file, transfer and rows. */
 static struct gcp_ev_writer ev_writer(const struct writer *w)
 {
-    return (struct gcp_ev_writer){w->file, w->dxpl, w->r, w->total, 0};
+    return (struct gcp_ev_writer){w->file, w->dxpl_ind, w->r, w->total, 0};
 }
 
 static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm comm)
