@@ -7,11 +7,13 @@
 # the barrier for the other rank's last chunk, sort + output, and exit
 # (MPI_Finalize); "mpirun" is the wall time outside the ranks (launch and
 # teardown).  On a loaded machine the walls say little; the CPU model then
-# says what the ranks would take on an idle one: T1 = the 1-rank process's
-# CPU, T2 = the larger of the ranks' CPU outside the push and the wait + the
-# larger of their push CPU.  mpirun's time outside the ranks is not in the
-# model: it adds about the same to T1 and T2, so the measured speed-up on an
-# idle machine comes out a little below the model's.
+# says what the ranks would take on an idle one: T1 = the 2 ranks' push CPU
+# summed (the same chunks as 1 rank's push, measured in the same run as T2,
+# since a CPU second under load varies by ~10% from run to run) + the 1-rank
+# run's CPU outside the push; T2 = the larger of the ranks' CPU outside the
+# push and the wait + the larger of their push CPU.  mpirun's time outside
+# the ranks is not in the model: it adds about the same to T1 and T2, so the
+# measured speed-up on an idle machine comes out a little below the model's.
 set -u
 GCPUSH=${GCPUSH:-$(pwd)/bin/gcpush}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 GCPUSH_TIMING=1
@@ -51,6 +53,7 @@ END {
     o0 = cpu["2.0"] - C["2.0", "wait"] - C["2.0", "push"]; o1 = cpu["2.1"] - C["2.1", "wait"] - C["2.1", "push"]
     p0 = C["2.0", "push"]; p1 = C["2.1", "push"]
     o = o0 > o1 ? o0 : o1; p = p0 > p1 ? p0 : p1
+    T1 = p0 + p1 + cpu["1.0"] - C["1.0", "push"]
     printf "  CPU model of the ranks: T1 %.2f s, T2 %.2f s (%.3f s outside the push + %.3f s push): speed-up %.2fx\n",
-           cpu["1.0"], o + p, o, p, cpu["1.0"] / (o + p)
+           T1, o + p, o, p, T1 / (o + p)
 }'
