@@ -75,7 +75,7 @@ static double wall_now(void)
 struct run_ctx {
     const struct gcp_scene *sc;
     struct gcp_par_counter counter;
-    int64_t *todo;         /* chunk indices still to push (restart); NULL: all */
+    int64_t *todo;         /* chunk indices to push, in the order handed out */
     int me, quiet, tty;
     double t0, last_print, last_ckpt;
     int64_t total;         /* particles this run pushes */
@@ -87,8 +87,45 @@ static int64_t next_chunk(void *vctx)
 {
     struct run_ctx *c = vctx;
     if (stop_requested) return -1;
+    const double w0 = gcp_phase_clock();
     int64_t k = gcp_par_counter_take(&c->counter);
-    return k < 0 ? -1 : c->todo ? c->todo[k] : k;
+    gcp_phase_wait(w0);
+    return k < 0 ? -1 : c->todo[k];
+}
+
+/* The order chunks are handed out in: the costliest first (longest
+ * processing time first), so that the chunks left when the ranks run out of
+ * work are the cheapest and the last rank to finish keeps the others
+ * waiting for less.  A chunk's cost is estimated as its particles times its
+ * population's steps (gc-gl4 costs about the same per particle-step across
+ * the flagship's populations: 0.47-0.62 us); equal costs keep the chunks'
+ * order.  The order changes which rank pushes what, never a result. */
+struct costed { double cost; int64_t chunk; };
+static int by_cost(const void *a, const void *b)
+{
+    const struct costed *x = a, *y = b;
+    if (x->cost != y->cost) return x->cost > y->cost ? -1 : 1;
+    return (x->chunk > y->chunk) - (x->chunk < y->chunk);
+}
+/* Returns 0, or -1 out of memory. */
+static int order_by_cost(const struct gcp_scene *sc, int64_t *items, int64_t n)
+{
+    struct costed *c = malloc((size_t)(n ? n : 1) * sizeof *c);
+    if (!c) return -1;
+    for (int64_t i = 0; i < n; i++) {
+        int64_t first, count;
+        gcp_scene_chunk(sc, items[i], &first, &count);
+        c[i] = (struct costed){0.0, items[i]};
+        for (size_t k = 0; k < sc->npop; k++)
+            if (first < sc->pops[k].first_id + sc->pops[k].count) {
+                c[i].cost = (double)count * (double)sc->pops[k].nsteps;
+                break;
+            }
+    }
+    qsort(c, (size_t)n, sizeof *c, by_cost);
+    for (int64_t i = 0; i < n; i++) items[i] = c[i].chunk;
+    free(c);
+    return 0;
 }
 
 static void progress(struct run_ctx *c, int final)
@@ -349,7 +386,9 @@ static void free_list(char **files, size_t n)
 
 int main(int argc, char **argv)
 {
+    gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
     MPI_Init(&argc, &argv);
+    gcp_phase_mark("init");
     MPI_Comm comm = MPI_COMM_WORLD;
     int me, nranks;
     MPI_Comm_rank(comm, &me);
@@ -408,6 +447,7 @@ int main(int argc, char **argv)
     char **files;
     size_t nfiles;
     int rc = load_scene(arg, restart, &sc, &files, &nfiles, comm, &err);
+    gcp_phase_mark("scene");
     if (rc) {
         if (me == 0) fprintf(stderr, "gcpush: %s\n", err.code ? err.msg : "a rank failed to read the run file");
         gcp_scene_free(sc);
@@ -469,6 +509,7 @@ int main(int argc, char **argv)
         MPI_Finalize();
         return EXIT_BAD_INPUT;
     }
+    gcp_phase_mark("checks");
     /* SIGUSR1 too: mpirun forwards it to every rank, whereas it answers
      * SIGINT/SIGTERM by killing the job after a short grace period */
     signal(SIGINT, on_signal);
@@ -518,17 +559,30 @@ int main(int argc, char **argv)
             printf("restart: %lld particles from %zu checkpoint file(s), %lld to push\n",
                    (long long)have, nfiles, (long long)ctx.total);
     }
+    if (!ctx.todo && (ctx.todo = malloc((size_t)(nitems ? nitems : 1) * sizeof *ctx.todo)))
+        for (int64_t k = 0; k < nitems; k++) ctx.todo[k] = k;
+    /* every rank must hand out the same order */
+    int unordered = !ctx.todo || order_by_cost(sc, ctx.todo, nitems) != 0;
+    MPI_Allreduce(MPI_IN_PLACE, &unordered, 1, MPI_INT, MPI_MAX, comm);
+    if (unordered) {
+        if (me == 0) fprintf(stderr, "gcpush: out of memory for the list of chunks\n");
+        MPI_Abort(comm, EXIT_RUN_FAILED);
+    }
     if (gcp_par_counter_create(&ctx.counter, nitems, comm)) {
         if (me == 0) fprintf(stderr, "gcpush: MPI window creation failed\n");
         MPI_Abort(comm, EXIT_RUN_FAILED);
     }
     ctx.t0 = ctx.last_print = ctx.last_ckpt = wall_now();
+    gcp_phase_mark("setup");
     const struct gcp_schedule sched = {next_chunk, chunk_done, &ctx,
                                        (const volatile int *)&stop_requested};
     rc = gcp_scene_push(sc, &res, &sched, &err);
     if (me == 0 && !quiet && ctx.last_print > ctx.t0) progress(&ctx, 1);
+    gcp_phase_mark("push");
+    gcp_phase_busy(res.rank_cpu);
     int64_t pushed, steps_run;
     MPI_Barrier(comm);
+    gcp_phase_mark("idle"); /* waiting for the last chunk of another rank */
     gcp_par_counter_totals(&ctx.counter, &pushed, &steps_run);
     gcp_par_counter_free(&ctx.counter);
     free(ctx.todo);
@@ -558,6 +612,7 @@ int main(int argc, char **argv)
         if (rc == 0) log_step_failures(sc, &res);
         int bad = rc != 0;
         MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+        gcp_phase_mark("sort");
         if (!bad) rc = gcp_output_write(sc, &res, comm, &err);
         if (bad || rc) {
             if (me == 0) fprintf(stderr, "gcpush: %s\n", rc ? err.msg : "out of memory on a rank");
@@ -576,9 +631,13 @@ int main(int argc, char **argv)
             if (!quiet) summary(sc, &res, comm, me, steps_run, wall_now() - ctx.t0);
         }
     }
+    gcp_phase_mark("end");
     gcp_results_free(&res);
     gcp_scene_free(sc);
     free_list(files, nfiles);
+    gcp_phase_mark("free");
     MPI_Finalize();
+    gcp_phase_mark("finalize");
+    gcp_phase_report(me, nranks);
     return status;
 }

@@ -1,10 +1,13 @@
 /* The output file: one HDF5 file per run, written collectively by every rank
  * through MPI-IO (parallel HDF5).  Layout: DESIGN.md, "HDF5 output".
  *
- * Each rank holds its rows sorted by particle id.  Under MPI the rows are
- * moved first (one Alltoallv per column) so that each rank holds one block
- * of consecutive ids, and one collective H5Dwrite per dataset puts every
- * block in place (struct writer, output_rows.c).  The file is
+ * Each rank holds its rows sorted by particle id and writes them in place
+ * (past ~1000 runs of ids per rank the rows are moved first, one Alltoallv
+ * per column, so that each rank holds one block of consecutive ids: struct
+ * writer, output_rows.c).  Datasets, groups and attributes are created
+ * collectively; the rows of contiguous datasets go in with independent
+ * writes (each rank's own pwrites), only the chunked, deflated
+ * trajectories with collective ones.  The file is
  * written under a temporary name and renamed by rank 0 only when every rank
  * succeeded; otherwise the temporary file is removed. */
 #define _GNU_SOURCE /* fallocate (Linux) */
@@ -21,6 +24,7 @@
 
 #include "output_priv.h"
 #include "output_events_priv.h"
+#include "par/par.h"
 
 static void write_rows(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
                        hsize_t d1, hsize_t d2, const void *data)
@@ -160,7 +164,7 @@ static void write_trajectories(struct writer *w)
 /* The event tables (output_events.c) with this writer's file, transfer and rows. */
 static struct gcp_ev_writer ev_writer(const struct writer *w)
 {
-    return (struct gcp_ev_writer){w->file, w->dxpl, w->r, w->total, 0};
+    return (struct gcp_ev_writer){w->file, w->dxpl_ind, w->r, w->total, 0};
 }
 
 static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm comm)
@@ -397,6 +401,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     MPI_Allreduce(MPI_IN_PLACE, &runs, 1, MPI_INT64_T, MPI_MAX, comm);
     if (nranks > 1 && runs > gcp_writer_spread_runs()) gcp_writer_spread_plan(&w);
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
+    gcp_phase_mark("w-plan");
     if (w.bad) {
         gcp_writer_spread_free(&w);
         return gcp_error_set(err, GCP_ERR_STATE,
@@ -421,8 +426,10 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
         gcp_writer_spread_free(&w);
         return gcp_error_set(err, GCP_ERR_IO, "%s: cannot create '%s'", sc->output, tmp);
     }
+    gcp_phase_mark("w-create");
     const int64_t need = size_bound(r, sc->total, comm);
     const int nospace = reserve_space(tmp, need, comm);
+    gcp_phase_mark("w-reserve");
     if (nospace) {
         H5Fclose(w.file);
         gcp_writer_spread_free(&w);
@@ -447,17 +454,22 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
 
     gcp_h5_root_attrs(&w.bad, w.file, sc, nranks);
     write_particles(&w, sc);
+    gcp_phase_mark("w-particles");
     if (r->S) write_trajectories(&w);
+    gcp_phase_mark("w-traj");
     if (sc->invariants || sc->events) write_events(&w, sc, comm);
+    gcp_phase_mark("w-events");
     if (r->hybrid) write_hybrid(&w, comm);
     write_timing(&w, comm, me, nranks);
     write_units(&w);
+    gcp_phase_mark("w-timing+units");
 
     H5Pclose(w.dxpl);
     H5Pclose(w.dxpl_ind);
     gcp_writer_spread_free(&w);
     if (H5Fclose(w.file) < 0) w.bad = 1;
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
+    gcp_phase_mark("w-close");
     int renamed = 0, code = 0;
     if (me == 0) {
         if (w.bad) {

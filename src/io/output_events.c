@@ -28,8 +28,8 @@ static hid_t group(struct gcp_ev_writer *w, hid_t loc, const char *name)
  * them sorted by (id, t) whatever the rank count: the per-particle counts
  * of one table are summed over ranks (Allreduce of an N-vector), their
  * prefix sum gives each particle's first row, and each rank writes its rows
- * there (runs of consecutive rows, one hyperslab each) in one collective
- * write per column.  The rank's events are already sorted (id, kind, t). */
+ * there (runs of consecutive rows, one hyperslab each) in one independent
+ * write per column (the datasets are created collectively).  The rank's events are already sorted (id, kind, t). */
 struct ev_sel {
     int64_t M;         /* rows in the file */
     int64_t n;         /* rows of this rank */

@@ -13,7 +13,7 @@
 /* What the event tables need of the output writer. */
 struct gcp_ev_writer {
     hid_t file;
-    hid_t dxpl;                   /* collective transfer */
+    hid_t dxpl;                   /* transfer of the rows (independent) */
     const struct gcp_results *r;
     int64_t total;                /* particles in the file */
     int bad;                      /* a call failed on this rank */
