@@ -205,6 +205,7 @@ void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour 
         c->t0 = P.t;
         c->acc = 0.0;
         c->prev = P;
+        c->cprev = cos(P.phi), c->sprev = sin(P.phi);
         c->n = 1;
         return;
     }
@@ -234,6 +235,7 @@ void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour 
         c->acc += seg;
     }
     c->prev = P;
+    c->cprev = cos(P.phi), c->sprev = sin(P.phi);
     c->n++;
 }
 
@@ -297,7 +299,7 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
 
 /* A mirror point between s1 and s at fraction th. */
 static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s,
-                   double th)
+                   double fs, double th)
 {
     const struct gsample *a = &L->s1;
     const double tm = a->t + th * (s->t - a->t);
@@ -311,7 +313,7 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     L->n_mirror++;
     const double lat = asin(xm[2] / sqrt(gcp_obs_dot3(xm, xm)));
     /* close the half-bounce: end piece and Euler-Maclaurin correction */
-    const double h = s->t - a->t, fa = jdot(o, a), da = tm - a->t;
+    const double h = s->t - a->t, fa = L->jd1, da = tm - a->t;
     double Jh = L->J_acc;
     if (da > 0) Jh += fa * da / 3.0 + h * h / 12.0 * 2.0 * fa / da;
     /* the mu integral: the piece up to the mirror point */
@@ -351,7 +353,7 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
         L->mub = 0.0;
     }
     /* open the next half at the mirror point: start piece from s */
-    const double fs = jdot(o, s), ds = s->t - tm;
+    const double ds = s->t - tm;
     L->J_acc = ds > 0 ? fs * ds / 3.0 + h * h / 12.0 * 2.0 * fs / ds : 0.0;
     L->mub += 0.5 * (mum + s->mu) * (s->t - tm);
     L->half_valid = 1;
@@ -364,15 +366,16 @@ void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
                            const struct gsample *s)
 {
     int first_of_half = !L->have_s1;
+    const double jd = jdot(o, s);
     if (L->have_s1) {
         const struct gsample *a = &L->s1;
         if ((a->ppar > 0) != (s->ppar > 0)) {
             const double dp = a->ppar - s->ppar;
             const double th = dp != 0.0 ? a->ppar / dp : 1.0;
-            mirror(o, L, id, s, fmin(fmax(th, 0.0), 1.0));
+            mirror(o, L, id, s, jd, fmin(fmax(th, 0.0), 1.0));
             first_of_half = 1;
         } else {
-            L->J_acc += 0.5 * (jdot(o, a) + jdot(o, s)) * (s->t - a->t);
+            L->J_acc += 0.5 * (L->jd1 + jd) * (s->t - a->t);
             L->mub += 0.5 * (a->mu + s->mu) * (s->t - a->t);
         }
     }
@@ -392,6 +395,7 @@ void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
         }
     }
     L->s1 = *s;
+    L->jd1 = jd;
     L->have_s1 = 1;
 }
 

@@ -30,6 +30,7 @@ struct contour {
     int n;
     struct cpoint prev;
     double phi0, t0, acc;
+    double cprev, sprev; /* cos, sin of prev.phi (the stream contour's pi/4 pre-test) */
 };
 
 struct lane {
@@ -43,6 +44,7 @@ struct lane {
     /* stream */
     int have_s1;
     struct gsample s1;
+    double jd1;      /* the J integrand p_par^2 / (gamma m) of s1, computed once */
     /* half-bounce */
     int half_valid;  /* began at a mirror point */
     double J_acc;    /* int p_par v_par dt of the half so far */

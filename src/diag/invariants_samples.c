@@ -36,6 +36,23 @@ static void stream_point(struct gcp_observer *o, struct lane *L, int64_t id, con
     gcp_obs_drift_point(o, L, &L->cst, id, P, GCP_CONTOUR_STREAM);
 }
 
+/* |wrap(atan2(X_y, X_x) - prev.phi)| > pi/4, the test of every stream
+ * sample (a guiding centre's every step): the angle d between X and the
+ * direction (cos, sin) of prev.phi has |d| <= pi/4 exactly when
+ * X.e >= |X x e| (cos d >= |sin d|), which takes no atan2.  Where the two
+ * sides are within 1e-9 |X| of each other (rounding of cos, sin and atan2
+ * is ~1e-16 |X|) the atan2 test decides, so the verdict is always the
+ * atan2 test's own. */
+static int azimuth_moved(const struct contour *c, const double X[3])
+{
+    const double dot = X[0] * c->cprev + X[1] * c->sprev;
+    const double crs = X[1] * c->cprev - X[0] * c->sprev;
+    const double margin = 1e-9 * (fabs(X[0]) + fabs(X[1]));
+    if (dot - fabs(crs) > margin) return 0;
+    if (fabs(crs) - dot > margin) return 1;
+    return fabs(gcp_obs_wrap_pi(atan2(X[1], X[0]) - c->prev.phi)) > 0.25 * GCP_PI;
+}
+
 void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s)
 {
     const double T = o->opts.sample_dt;
@@ -74,8 +91,7 @@ void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const s
     }
     /* a fast azimuth (a tokamak transit, a drift faster than the cadence)
      * would alias: a point wherever the azimuth moved by pi/4 since the last */
-    if (L->cst.n && L->cst.prev.t < s->t &&
-        fabs(gcp_obs_wrap_pi(atan2(s->X[1], s->X[0]) - L->cst.prev.phi)) > 0.25 * GCP_PI)
+    if (L->cst.n && L->cst.prev.t < s->t && azimuth_moved(&L->cst, s->X))
         stream_point(o, L, id, s, s, s->t);
 }
 
