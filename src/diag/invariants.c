@@ -108,9 +108,23 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->By = calloc(n, sizeof(double));
     o->Bz = calloc(n, sizeof(double));
     o->fst = calloc(n, sizeof(int32_t));
-    double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz};
-    int fail = 0;
-    for (size_t k = 0; k < 6; k++) fail |= !(*v[k] = calloc(n, sizeof(double)));
+    /* the full-orbit scratch and struct gyro, in one allocation */
+    struct gyro *g = &o->g;
+    double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz, &o->Vpp, &o->Vmu, &o->Vp2,
+                    &g->rho[0], &g->rho[1], &g->rho[2], &g->e1[0], &g->e1[1], &g->e1[2],
+                    &g->e2[0], &g->e2[1], &g->e2[2], &g->acc[0], &g->acc[1], &g->acc[2],
+                    &g->acc[3], &g->acc[4], &g->acc[5], &g->prev[0], &g->prev[1], &g->prev[2],
+                    &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
+                    &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev};
+    const size_t nv = sizeof v / sizeof v[0];
+    o->gmem = calloc(nv * n, sizeof(double));
+    o->gflags = calloc(4 * n, sizeof(int64_t));
+    int fail = !o->gmem || !o->gflags;
+    if (!fail) {
+        for (size_t k = 0; k < nv; k++) *v[k] = o->gmem + k * n;
+        g->init = o->gflags, g->left = o->gflags + n, o->special = o->gflags + 2 * n;
+        o->active = o->gflags + 3 * n;
+    }
     if (fail || !o->lane || !o->Bx || !o->By || !o->Bz || !o->fst) {
         gcp_observer_free(o);
         return GCP_ERR_NOMEM;
@@ -140,8 +154,8 @@ void gcp_observer_free(struct gcp_observer *o)
     free(o->By);
     free(o->Bz);
     free(o->fst);
-    double *v[] = {o->Xx, o->Xy, o->Xz, o->Cx, o->Cy, o->Cz};
-    for (size_t k = 0; k < 6; k++) free(v[k]);
+    free(o->gmem);
+    free(o->gflags);
     free(o);
 }
 
@@ -408,6 +422,8 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     L->loss_done = 1;
     if (!(o->opts.events & GCP_EVT_LOSS)) return;
     const double xe[3] = {b->x[i], b->y[i], b->z[i]};
+    const size_t li = b->index[i];
+    const double xp[3] = {o->xprev[0][li], o->xprev[1][li], o->xprev[2][li]}, tp = o->tprev[li];
     struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
     memcpy(e.v, xe, sizeof xe);
     /* the crossing of the sphere r = r_inner (or r_outer) within the last
@@ -415,17 +431,17 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     double rs = NAN;
     if (b->status[i] == GCP_PRECIPITATED) rs = o->f->r_inner;
     if (b->status[i] == GCP_LEFT_DOMAIN && isfinite(o->f->r_outer)) rs = o->f->r_outer;
-    const double r0 = sqrt(gcp_obs_dot3(L->xprev, L->xprev)), r1 = sqrt(gcp_obs_dot3(xe, xe));
-    if (isfinite(rs) && L->tprev < b->t[i] && (r0 - rs) * (r1 - rs) <= 0 && r0 != r1) {
+    const double r0 = sqrt(gcp_obs_dot3(xp, xp)), r1 = sqrt(gcp_obs_dot3(xe, xe));
+    if (isfinite(rs) && tp < b->t[i] && (r0 - rs) * (r1 - rs) <= 0 && r0 != r1) {
         /* solve |xprev + th d|^2 = rs^2 for th in [0, 1] */
         double d[3];
-        for (int k = 0; k < 3; k++) d[k] = xe[k] - L->xprev[k];
-        const double A = gcp_obs_dot3(d, d), B = 2.0 * gcp_obs_dot3(L->xprev, d), C = r0 * r0 - rs * rs;
+        for (int k = 0; k < 3; k++) d[k] = xe[k] - xp[k];
+        const double A = gcp_obs_dot3(d, d), B = 2.0 * gcp_obs_dot3(xp, d), C = r0 * r0 - rs * rs;
         const double disc = sqrt(fmax(B * B - 4.0 * A * C, 0.0));
         double th = (r1 < r0) ? (-B - disc) / (2.0 * A) : (-B + disc) / (2.0 * A);
         if (!(th >= 0.0 && th <= 1.0)) th = (r0 - rs) / (r0 - r1);
-        for (int k = 0; k < 3; k++) e.v[k] = L->xprev[k] + th * d[k];
-        e.t = L->tprev + th * (b->t[i] - L->tprev);
+        for (int k = 0; k < 3; k++) e.v[k] = xp[k] + th * d[k];
+        e.t = tp + th * (b->t[i] - tp);
     }
     gcp_obs_emit(o, L, &e);
 }
@@ -441,59 +457,34 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
                          int32_t mode)
 {
     const size_t n = b->n_active;
+    /* method = hybrid: a lane whose mode changed starts a new gyration (the
+     * one in progress, if any, is not finished); its stream goes on */
+    for (size_t i = 0; o->hybrid && i < n; i++) {
+        const size_t li = b->index[i];
+        if (li >= o->nlanes || !o->active[li] || o->lane[li].mode == mode) continue;
+        o->lane[li].mode = mode;
+        o->g.init[li] = 0;
+    }
     if (o->stream && n) {
         memset(o->fst, 0, n * sizeof(int32_t));
         o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
                                NULL, o->fst);
     }
-    if (o->stream && !gc && n) {
-        /* first-order guiding centre of every lane (gcp_gc_from_fo, as a
-         * block): rho = b x p / (q B) at x, X = x - rho; B at X next */
-        const double m = o->m, qi = 1.0 / o->q;
-        for (size_t i = 0; i < n; i++) {
-            const double B2 = o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i];
-            const double s = m * qi / B2; /* b x p /(q B) = B x u m /(q B^2) */
-            const double rx = s * (o->By[i] * b->uz[i] - o->Bz[i] * b->uy[i]);
-            const double ry = s * (o->Bz[i] * b->ux[i] - o->Bx[i] * b->uz[i]);
-            const double rz = s * (o->Bx[i] * b->uy[i] - o->By[i] * b->ux[i]);
-            o->Xx[i] = b->x[i] - rx, o->Xy[i] = b->y[i] - ry, o->Xz[i] = b->z[i] - rz;
-        }
-        o->f->type->eval_block(o->f, t, n, o->Xx, o->Xy, o->Xz, o->Cx, o->Cy, o->Cz, NULL, NULL,
-                               NULL, o->fst);
+    if (o->stream && !gc && n) gcp_obs_fo_block(o, b, t);
+    for (size_t i = 0; o->stream && gc && i < n; i++) {
+        const size_t li = b->index[i];
+        if (li >= o->nlanes || !o->active[li]) continue;
+        struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]}, .ppar = b->ppar[i],
+                            .mu = b->mu[i]};
+        s.B = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
+        s.p2 = s.ppar * s.ppar + 2.0 * o->m * s.mu * s.B;
+        gcp_obs_stream_sample(o, &o->lane[li], o->id0 + (int64_t)li, &s);
     }
     for (size_t i = 0; i < n; i++) {
         const size_t li = b->index[i];
-        if (li >= o->nlanes) continue;
-        struct lane *L = &o->lane[li];
-        if (!L->active) continue;
-        const int64_t id = o->id0 + (int64_t)li;
-        if (L->mode != mode) {
-            L->mode = mode;
-            L->g_init = 0; /* the gyration in progress (if any) is not finished */
-        }
-        if (o->stream) {
-            if (gc) {
-                struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]}, .ppar = b->ppar[i],
-                                    .mu = b->mu[i]};
-                s.B = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
-                s.p2 = s.ppar * s.ppar + 2.0 * o->m * s.mu * s.B;
-                gcp_obs_stream_sample(o, L, id, &s);
-            } else {
-                const double m = o->m;
-                const double p[3] = {m * b->ux[i], m * b->uy[i], m * b->uz[i]};
-                const double BX = sqrt(o->Cx[i] * o->Cx[i] + o->Cy[i] * o->Cy[i] + o->Cz[i] * o->Cz[i]);
-                const double pp = (p[0] * o->Cx[i] + p[1] * o->Cy[i] + p[2] * o->Cz[i]) / BX;
-                const double p2 = gcp_obs_dot3(p, p);
-                const double v[6] = {o->Xx[i], o->Xy[i], o->Xz[i], pp,
-                                     fmax(p2 - pp * pp, 0.0) / (2.0 * m * BX), p2};
-                const double rho[3] = {b->x[i] - o->Xx[i], b->y[i] - o->Xy[i], b->z[i] - o->Xz[i]};
-                const double Bm = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
-                const double bx[3] = {o->Bx[i] / Bm, o->By[i] / Bm, o->Bz[i] / Bm};
-                gcp_obs_fo_step(o, L, id, t, v, rho, bx);
-            }
-        }
-        L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
-        L->tprev = t;
+        if (li >= o->nlanes || !o->active[li]) continue;
+        o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
+        o->tprev[li] = t;
     }
 }
 
@@ -511,11 +502,12 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         if (li >= o->nlanes) continue;
         struct lane *L = &o->lane[li];
         memset(L, 0, sizeof *L);
-        L->active = 1;
+        o->g.init[li] = 0; /* no gyration in progress */
+        o->active[li] = 1;
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
-        L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
-        L->tprev = t0;
+        o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
+        o->tprev[li] = t0;
     }
     /* method = hybrid: the mode of each lane comes with gcp_observer_sample_mode */
     if (!o->hybrid) observe_live(o, b, t0, o->gc, 0);
@@ -528,7 +520,7 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
     for (size_t i = b->n_active; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
-        if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
+        if (o->active[li] && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
     if (!o->hybrid) observe_live(o, b, t, o->gc, 0);
@@ -550,12 +542,12 @@ int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b)
     for (size_t i = 0; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
-        if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
+        if (o->active[li] && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
     /* rows the lane's other rows replace; the reasons for what is missing */
     if (o->out) gcp_obs_finish(o, b);
-    for (size_t i = 0; i < b->n; i++) o->lane[b->index[i]].active = 0;
+    for (size_t i = 0; i < b->n; i++) o->active[b->index[i]] = 0;
     const int bad = o->nomem;
     o->nomem = 0;
     return bad ? GCP_ERR_NOMEM : 0;

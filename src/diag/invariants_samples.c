@@ -126,7 +126,7 @@ void gcp_obs_finish(struct gcp_observer *o, const struct gcp_block *b)
     for (size_t i = 0; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
-        if (!L->active) continue;
+        if (!o->active[li]) continue;
         struct gcp_event e = {.id = o->id0 + (int64_t)li, .kind = GCP_EVENT_UNDEFINED, .t = b->t[i]};
         const int nomirror = L->n_mirror == 0;
         const int drifted = L->n_drift_eq + L->n_drift_st > 0;
