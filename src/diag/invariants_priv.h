@@ -30,7 +30,7 @@ struct contour {
     int n;
     struct cpoint prev;
     double phi0, t0, acc;
-    double cprev, sprev; /* cos, sin of prev.phi (the stream contour's pi/4 pre-test) */
+    double cprev, sprev; /* the stream contour: cos, sin of prev.phi (its pi/4 pre-test) */
 };
 
 struct lane {
@@ -94,6 +94,7 @@ struct gcp_observer {
     double *Xx, *Xy, *Xz, *Cx, *Cy, *Cz; /* full orbit: first-order guiding centre, B there */
     double *Vpp, *Vmu, *Vp2;  /* full orbit: p_par, mu, p^2 of that guiding centre */
     int64_t *special;         /* full orbit: the lanes a gyration starts or may end in */
+    double *Gb, *Gp2, *Gjd;   /* guiding centre: |B|, p^2 and the J integrand of each lane */
     struct gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
      * push, the last live position and time (loss interpolation) */
