@@ -69,7 +69,7 @@ struct lane {
 
 /* Full orbit: the gyration in progress of each lane (indexed by the lane's
  * original index, as lane[]), as a struct of arrays, so that the step of a
- * gyration that neither starts nor may end in it (all but ~1 step in 10)
+ * gyration that neither starts nor ends in it (all but ~1 step in 20)
  * is one vectorised pass over the block (invariants_fo.c). */
 struct gyro {
     int64_t *init, *left; /* left: the gyroradius has been on the far side of e1 */
@@ -93,7 +93,7 @@ struct gcp_observer {
     double *Bx, *By, *Bz; /* scratch: B at the lanes */
     double *Xx, *Xy, *Xz, *Cx, *Cy, *Cz; /* full orbit: first-order guiding centre, B there */
     double *Vpp, *Vmu, *Vp2;  /* full orbit: p_par, mu, p^2 of that guiding centre */
-    int64_t *special;         /* full orbit: the lanes a gyration starts or may end in */
+    int64_t *special;         /* full orbit: the lanes a gyration starts or ends in */
     double *Gb, *Gp2, *Gjd;   /* guiding centre: |B|, p^2 and the J integrand of each lane */
     struct gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
