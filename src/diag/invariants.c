@@ -220,7 +220,6 @@ void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour 
         c->t0 = P.t;
         c->acc = 0.0;
         c->prev = P;
-        if (which == GCP_CONTOUR_STREAM) c->cprev = cos(P.phi), c->sprev = sin(P.phi);
         c->n = 1;
         return;
     }
@@ -250,7 +249,6 @@ void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour 
         c->acc += seg;
     }
     c->prev = P;
-    if (which == GCP_CONTOUR_STREAM) c->cprev = cos(P.phi), c->sprev = sin(P.phi);
     c->n++;
 }
 

@@ -30,7 +30,7 @@ struct contour {
     int n;
     struct cpoint prev;
     double phi0, t0, acc;
-    double cprev, sprev; /* the stream contour: cos, sin of prev.phi (its pi/4 pre-test) */
+    double cprev, sprev; /* the stream contour: cos, sin of prev.phi (set by stream_point) */
 };
 
 struct lane {

@@ -34,6 +34,10 @@ static void stream_point(struct gcp_observer *o, struct lane *L, int64_t id, con
     struct cpoint P = {.t = t, .z = X[2]};
     gcp_obs_contour_of(o, t, X, &P.phi, &P.R, &P.psi, &P.AR, &P.Az);
     gcp_obs_drift_point(o, L, &L->cst, id, P, GCP_CONTOUR_STREAM);
+    /* the direction of its azimuth, for azimuth_moved (cos, sin of P.phi
+     * to rounding, which that test's margin covers) */
+    L->cst.cprev = P.R > 0 ? X[0] / P.R : 1.0;
+    L->cst.sprev = P.R > 0 ? X[1] / P.R : 0.0;
 }
 
 /* |wrap(atan2(X_y, X_x) - prev.phi)| > pi/4, the test of every stream
