@@ -9,12 +9,12 @@
 # classification at load, sorting the events or writing the file; best of
 # REPS runs of each.  Goals: <= 1.3 full orbit, <= 1.1 guiding centre.
 #   make && sh tests/bench/observer.sh        (from the top directory)
-# Environment: N particles (default 2048), REPS (default 3), PY.
+# Environment: N particles (default 2048), REPS (default 3), PY, GCPUSH.
 set -u
 PY=${PY:-/usr/bin/python3}
 N=${N:-2048}
 REPS=${REPS:-3}
-GCPUSH=$(pwd)/bin/gcpush
+GCPUSH=${GCPUSH:-$(pwd)/bin/gcpush}
 [ -x "$GCPUSH" ] || { echo "observer: run 'make' first" >&2; exit 1; }
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 TMP=$(mktemp -d)
