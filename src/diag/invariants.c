@@ -108,9 +108,24 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->By = calloc(n, sizeof(double));
     o->Bz = calloc(n, sizeof(double));
     o->fst = calloc(n, sizeof(int32_t));
-    double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz};
-    int fail = 0;
-    for (size_t k = 0; k < 6; k++) fail |= !(*v[k] = calloc(n, sizeof(double)));
+    /* the full-orbit scratch and struct gyro, in one allocation */
+    struct gyro *g = &o->g;
+    double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz, &o->Vpp, &o->Vmu, &o->Vp2,
+                    &g->rho[0], &g->rho[1], &g->rho[2], &g->e1[0], &g->e1[1], &g->e1[2],
+                    &g->e2[0], &g->e2[1], &g->e2[2], &g->acc[0], &g->acc[1], &g->acc[2],
+                    &g->acc[3], &g->acc[4], &g->acc[5], &g->prev[0], &g->prev[1], &g->prev[2],
+                    &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
+                    &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev,
+                    &o->Gb, &o->Gp2, &o->Gjd};
+    const size_t nv = sizeof v / sizeof v[0];
+    o->gmem = calloc(nv * n, sizeof(double));
+    o->gflags = calloc(4 * n, sizeof(int64_t));
+    int fail = !o->gmem || !o->gflags;
+    if (!fail) {
+        for (size_t k = 0; k < nv; k++) *v[k] = o->gmem + k * n;
+        g->init = o->gflags, g->left = o->gflags + n, o->special = o->gflags + 2 * n;
+        o->active = o->gflags + 3 * n;
+    }
     if (fail || !o->lane || !o->Bx || !o->By || !o->Bz || !o->fst) {
         gcp_observer_free(o);
         return GCP_ERR_NOMEM;
@@ -140,8 +155,8 @@ void gcp_observer_free(struct gcp_observer *o)
     free(o->By);
     free(o->Bz);
     free(o->fst);
-    double *v[] = {o->Xx, o->Xy, o->Xz, o->Cx, o->Cy, o->Cz};
-    for (size_t k = 0; k < 6; k++) free(v[k]);
+    free(o->gmem);
+    free(o->gflags);
     free(o);
 }
 
@@ -297,7 +312,7 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
 
 /* A mirror point between s1 and s at fraction th. */
 static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s,
-                   double th)
+                   double fs, double th)
 {
     const struct gsample *a = &L->s1;
     const double tm = a->t + th * (s->t - a->t);
@@ -311,7 +326,7 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     L->n_mirror++;
     const double lat = asin(xm[2] / sqrt(gcp_obs_dot3(xm, xm)));
     /* close the half-bounce: end piece and Euler-Maclaurin correction */
-    const double h = s->t - a->t, fa = jdot(o, a), da = tm - a->t;
+    const double h = s->t - a->t, fa = L->jd1, da = tm - a->t;
     double Jh = L->J_acc;
     if (da > 0) Jh += fa * da / 3.0 + h * h / 12.0 * 2.0 * fa / da;
     /* the mu integral: the piece up to the mirror point */
@@ -351,7 +366,7 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
         L->mub = 0.0;
     }
     /* open the next half at the mirror point: start piece from s */
-    const double fs = jdot(o, s), ds = s->t - tm;
+    const double ds = s->t - tm;
     L->J_acc = ds > 0 ? fs * ds / 3.0 + h * h / 12.0 * 2.0 * fs / ds : 0.0;
     L->mub += 0.5 * (mum + s->mu) * (s->t - tm);
     L->half_valid = 1;
@@ -360,8 +375,9 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     L->eq_has_prev = 0;
 }
 
-void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
-                           const struct gsample *s)
+/* The next stream sample s of a lane, jd = jdot(o, s). */
+static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
+                          const struct gsample *s, double jd)
 {
     int first_of_half = !L->have_s1;
     if (L->have_s1) {
@@ -369,10 +385,10 @@ void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
         if ((a->ppar > 0) != (s->ppar > 0)) {
             const double dp = a->ppar - s->ppar;
             const double th = dp != 0.0 ? a->ppar / dp : 1.0;
-            mirror(o, L, id, s, fmin(fmax(th, 0.0), 1.0));
+            mirror(o, L, id, s, jd, fmin(fmax(th, 0.0), 1.0));
             first_of_half = 1;
         } else {
-            L->J_acc += 0.5 * (jdot(o, a) + jdot(o, s)) * (s->t - a->t);
+            L->J_acc += 0.5 * (L->jd1 + jd) * (s->t - a->t);
             L->mub += 0.5 * (a->mu + s->mu) * (s->t - a->t);
         }
     }
@@ -392,7 +408,14 @@ void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
         }
     }
     L->s1 = *s;
+    L->jd1 = jd;
     L->have_s1 = 1;
+}
+
+void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
+                           const struct gsample *s)
+{
+    stream_sample(o, L, id, s, jdot(o, s));
 }
 
 
@@ -404,6 +427,8 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     L->loss_done = 1;
     if (!(o->opts.events & GCP_EVT_LOSS)) return;
     const double xe[3] = {b->x[i], b->y[i], b->z[i]};
+    const size_t li = b->index[i];
+    const double xp[3] = {o->xprev[0][li], o->xprev[1][li], o->xprev[2][li]}, tp = o->tprev[li];
     struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
     memcpy(e.v, xe, sizeof xe);
     /* the crossing of the sphere r = r_inner (or r_outer) within the last
@@ -411,17 +436,17 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     double rs = NAN;
     if (b->status[i] == GCP_PRECIPITATED) rs = o->f->r_inner;
     if (b->status[i] == GCP_LEFT_DOMAIN && isfinite(o->f->r_outer)) rs = o->f->r_outer;
-    const double r0 = sqrt(gcp_obs_dot3(L->xprev, L->xprev)), r1 = sqrt(gcp_obs_dot3(xe, xe));
-    if (isfinite(rs) && L->tprev < b->t[i] && (r0 - rs) * (r1 - rs) <= 0 && r0 != r1) {
+    const double r0 = sqrt(gcp_obs_dot3(xp, xp)), r1 = sqrt(gcp_obs_dot3(xe, xe));
+    if (isfinite(rs) && tp < b->t[i] && (r0 - rs) * (r1 - rs) <= 0 && r0 != r1) {
         /* solve |xprev + th d|^2 = rs^2 for th in [0, 1] */
         double d[3];
-        for (int k = 0; k < 3; k++) d[k] = xe[k] - L->xprev[k];
-        const double A = gcp_obs_dot3(d, d), B = 2.0 * gcp_obs_dot3(L->xprev, d), C = r0 * r0 - rs * rs;
+        for (int k = 0; k < 3; k++) d[k] = xe[k] - xp[k];
+        const double A = gcp_obs_dot3(d, d), B = 2.0 * gcp_obs_dot3(xp, d), C = r0 * r0 - rs * rs;
         const double disc = sqrt(fmax(B * B - 4.0 * A * C, 0.0));
         double th = (r1 < r0) ? (-B - disc) / (2.0 * A) : (-B + disc) / (2.0 * A);
         if (!(th >= 0.0 && th <= 1.0)) th = (r0 - rs) / (r0 - r1);
-        for (int k = 0; k < 3; k++) e.v[k] = L->xprev[k] + th * d[k];
-        e.t = L->tprev + th * (b->t[i] - L->tprev);
+        for (int k = 0; k < 3; k++) e.v[k] = xp[k] + th * d[k];
+        e.t = tp + th * (b->t[i] - tp);
     }
     gcp_obs_emit(o, L, &e);
 }
@@ -437,59 +462,46 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
                          int32_t mode)
 {
     const size_t n = b->n_active;
+    /* method = hybrid: a lane whose mode changed starts a new gyration (the
+     * one in progress, if any, is not finished); its stream goes on */
+    for (size_t i = 0; o->hybrid && i < n; i++) {
+        const size_t li = b->index[i];
+        if (li >= o->nlanes || !o->active[li] || o->lane[li].mode == mode) continue;
+        o->lane[li].mode = mode;
+        o->g.init[li] = 0;
+    }
     if (o->stream && n) {
         memset(o->fst, 0, n * sizeof(int32_t));
         o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
                                NULL, o->fst);
     }
-    if (o->stream && !gc && n) {
-        /* first-order guiding centre of every lane (gcp_gc_from_fo, as a
-         * block): rho = b x p / (q B) at x, X = x - rho; B at X next */
-        const double m = o->m, qi = 1.0 / o->q;
+    if (o->stream && !gc && n) gcp_obs_fo_block(o, b, t);
+    if (o->stream && gc && n) {
+        /* |B|, p^2 and the J integrand of every lane in one vectorised pass
+         * (the same expressions as jdot's: bit-identical), the rest per lane */
+        const double m = o->m;
+        const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
+        const double *restrict ppar = b->ppar, *restrict mu = b->mu;
+        double *restrict Gb = o->Gb, *restrict Gp2 = o->Gp2, *restrict Gjd = o->Gjd;
+        GCP_OBS_IVDEP
         for (size_t i = 0; i < n; i++) {
-            const double B2 = o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i];
-            const double s = m * qi / B2; /* b x p /(q B) = B x u m /(q B^2) */
-            const double rx = s * (o->By[i] * b->uz[i] - o->Bz[i] * b->uy[i]);
-            const double ry = s * (o->Bz[i] * b->ux[i] - o->Bx[i] * b->uz[i]);
-            const double rz = s * (o->Bx[i] * b->uy[i] - o->By[i] * b->ux[i]);
-            o->Xx[i] = b->x[i] - rx, o->Xy[i] = b->y[i] - ry, o->Xz[i] = b->z[i] - rz;
+            Gb[i] = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
+            Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
+            Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
         }
-        o->f->type->eval_block(o->f, t, n, o->Xx, o->Xy, o->Xz, o->Cx, o->Cy, o->Cz, NULL, NULL,
-                               NULL, o->fst);
+        for (size_t i = 0; i < n; i++) {
+            const size_t li = b->index[i];
+            if (li >= o->nlanes || !o->active[li]) continue;
+            const struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]},
+                                      .ppar = ppar[i], .mu = mu[i], .B = Gb[i], .p2 = Gp2[i]};
+            stream_sample(o, &o->lane[li], o->id0 + (int64_t)li, &s, Gjd[i]);
+        }
     }
     for (size_t i = 0; i < n; i++) {
         const size_t li = b->index[i];
-        if (li >= o->nlanes) continue;
-        struct lane *L = &o->lane[li];
-        if (!L->active) continue;
-        const int64_t id = o->id0 + (int64_t)li;
-        if (L->mode != mode) {
-            L->mode = mode;
-            L->g_init = 0; /* the gyration in progress (if any) is not finished */
-        }
-        if (o->stream) {
-            if (gc) {
-                struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]}, .ppar = b->ppar[i],
-                                    .mu = b->mu[i]};
-                s.B = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
-                s.p2 = s.ppar * s.ppar + 2.0 * o->m * s.mu * s.B;
-                gcp_obs_stream_sample(o, L, id, &s);
-            } else {
-                const double m = o->m;
-                const double p[3] = {m * b->ux[i], m * b->uy[i], m * b->uz[i]};
-                const double BX = sqrt(o->Cx[i] * o->Cx[i] + o->Cy[i] * o->Cy[i] + o->Cz[i] * o->Cz[i]);
-                const double pp = (p[0] * o->Cx[i] + p[1] * o->Cy[i] + p[2] * o->Cz[i]) / BX;
-                const double p2 = gcp_obs_dot3(p, p);
-                const double v[6] = {o->Xx[i], o->Xy[i], o->Xz[i], pp,
-                                     fmax(p2 - pp * pp, 0.0) / (2.0 * m * BX), p2};
-                const double rho[3] = {b->x[i] - o->Xx[i], b->y[i] - o->Xy[i], b->z[i] - o->Xz[i]};
-                const double Bm = sqrt(o->Bx[i] * o->Bx[i] + o->By[i] * o->By[i] + o->Bz[i] * o->Bz[i]);
-                const double bx[3] = {o->Bx[i] / Bm, o->By[i] / Bm, o->Bz[i] / Bm};
-                gcp_obs_fo_step(o, L, id, t, v, rho, bx);
-            }
-        }
-        L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
-        L->tprev = t;
+        if (li >= o->nlanes || !o->active[li]) continue;
+        o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
+        o->tprev[li] = t;
     }
 }
 
@@ -507,11 +519,12 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         if (li >= o->nlanes) continue;
         struct lane *L = &o->lane[li];
         memset(L, 0, sizeof *L);
-        L->active = 1;
+        o->g.init[li] = 0; /* no gyration in progress */
+        o->active[li] = 1;
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
-        L->xprev[0] = b->x[i], L->xprev[1] = b->y[i], L->xprev[2] = b->z[i];
-        L->tprev = t0;
+        o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
+        o->tprev[li] = t0;
     }
     /* method = hybrid: the mode of each lane comes with gcp_observer_sample_mode */
     if (!o->hybrid) observe_live(o, b, t0, o->gc, 0);
@@ -524,7 +537,7 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
     for (size_t i = b->n_active; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
-        if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
+        if (o->active[li] && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
     if (!o->hybrid) observe_live(o, b, t, o->gc, 0);
@@ -546,12 +559,12 @@ int gcp_observer_end(struct gcp_observer *o, const struct gcp_block *b)
     for (size_t i = 0; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
-        if (L->active && !L->loss_done && b->status[i] != GCP_ALIVE)
+        if (o->active[li] && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
     /* rows the lane's other rows replace; the reasons for what is missing */
     if (o->out) gcp_obs_finish(o, b);
-    for (size_t i = 0; i < b->n; i++) o->lane[b->index[i]].active = 0;
+    for (size_t i = 0; i < b->n; i++) o->active[b->index[i]] = 0;
     const int bad = o->nomem;
     o->nomem = 0;
     return bad ? GCP_ERR_NOMEM : 0;

@@ -30,19 +30,17 @@ struct contour {
     int n;
     struct cpoint prev;
     double phi0, t0, acc;
+    double cprev, sprev; /* the stream contour: cos, sin of prev.phi (set by stream_point) */
 };
 
 struct lane {
-    int active, loss_done;
-    double xprev[3], tprev;
+    int loss_done;
     int32_t mode;         /* method = hybrid: the mode of the last sample (enum gcp_hybrid_mode) */
-    /* full orbit: the gyration in progress */
-    int g_init, g_left;   /* g_left: the gyroradius has been on the far side of e1 */
-    double rho_prev[3], g_e1[3], g_e2[3], g_t0, g_tprev;
-    double g_acc[6], g_prev[6]; /* X[3], ppar, mu, p2 */
+    /* full orbit: the gyration in progress is in struct gyro */
     /* stream */
     int have_s1;
     struct gsample s1;
+    double jd1;      /* the J integrand p_par^2 / (gamma m) of s1, computed once */
     /* half-bounce */
     int half_valid;  /* began at a mirror point */
     double J_acc;    /* int p_par v_par dt of the half so far */
@@ -69,6 +67,18 @@ struct lane {
     int64_t s_k, d_k;   /* d_k: the stream contour's next grid index */
 };
 
+/* Full orbit: the gyration in progress of each lane (indexed by the lane's
+ * original index, as lane[]), as a struct of arrays, so that the step of a
+ * gyration that neither starts nor ends in it (all but ~1 step in 20)
+ * is one vectorised pass over the block (invariants_fo.c). */
+struct gyro {
+    int64_t *init, *left; /* left: the gyroradius has been on the far side of e1 */
+    double *rho[3];       /* rho = x - X of the previous step */
+    double *e1[3], *e2[3];
+    double *acc[6], *prev[6]; /* trapezoid integrals and previous values of X[3], ppar, mu, p2 */
+    double *t0, *tprev;
+};
+
 struct gcp_observer {
     const struct gcp_field *f;
     const struct gcp_pusher_type *p;
@@ -82,6 +92,16 @@ struct gcp_observer {
     struct lane *lane;
     double *Bx, *By, *Bz; /* scratch: B at the lanes */
     double *Xx, *Xy, *Xz, *Cx, *Cy, *Cz; /* full orbit: first-order guiding centre, B there */
+    double *Vpp, *Vmu, *Vp2;  /* full orbit: p_par, mu, p^2 of that guiding centre */
+    int64_t *special;         /* full orbit: the lanes a gyration starts or ends in */
+    double *Gb, *Gp2, *Gjd;   /* guiding centre: |B|, p^2 and the J integrand of each lane */
+    struct gyro g;
+    /* per lane li, dense, as they are written at every step: begun in this
+     * push, the last live position and time (loss interpolation) */
+    int64_t *active;
+    double *xprev[3], *tprev;
+    double *gmem;             /* the storage of these arrays and of the scratch above */
+    int64_t *gflags;
     int32_t *fst;
     double q, m;
     int64_t id0;
@@ -90,6 +110,15 @@ struct gcp_observer {
     struct gcp_events *out;
     int nomem;
 };
+
+/* Before a loop over a block's lanes whose arrays do not overlap (and
+ * whose lane indices are distinct): GCC would otherwise test the arrays for
+ * overlap at run time, and gives up past 10 of them. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define GCP_OBS_IVDEP _Pragma("GCC ivdep")
+#else
+#define GCP_OBS_IVDEP
+#endif
 
 static inline double gcp_obs_dot3(const double a[3], const double b[3])
 {
@@ -106,9 +135,9 @@ double gcp_obs_energy(const struct gcp_observer *o, double p2);
 /* The next stream sample of a lane (invariants.c). */
 void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
                            const struct gsample *s);
-/* Full orbit: one step into the gyro-average (invariants_fo.c). */
-void gcp_obs_fo_step(struct gcp_observer *o, struct lane *L, int64_t id, double t,
-                     const double v[6], const double rho[3], const double bx[3]);
+/* Full orbit: the live lanes of b at t into their gyro-averages, B at the
+ * particles in o->Bx, By, Bz (invariants_fo.c). */
+void gcp_obs_fo_block(struct gcp_observer *o, const struct gcp_block *b, double t);
 /* Contour quantities of a position (phi, R, psi = R A_phi, A_R, A_z). */
 void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
                         double *R, double *psi, double *AR, double *Az);

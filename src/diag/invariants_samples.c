@@ -34,6 +34,27 @@ static void stream_point(struct gcp_observer *o, struct lane *L, int64_t id, con
     struct cpoint P = {.t = t, .z = X[2]};
     gcp_obs_contour_of(o, t, X, &P.phi, &P.R, &P.psi, &P.AR, &P.Az);
     gcp_obs_drift_point(o, L, &L->cst, id, P, GCP_CONTOUR_STREAM);
+    /* the direction of its azimuth, for azimuth_moved (cos, sin of P.phi
+     * to rounding, which that test's margin covers) */
+    L->cst.cprev = P.R > 0 ? X[0] / P.R : 1.0;
+    L->cst.sprev = P.R > 0 ? X[1] / P.R : 0.0;
+}
+
+/* |wrap(atan2(X_y, X_x) - prev.phi)| > pi/4, the test of every stream
+ * sample (a guiding centre's every step): the angle d between X and the
+ * direction (cos, sin) of prev.phi has |d| <= pi/4 exactly when
+ * X.e >= |X x e| (cos d >= |sin d|), which takes no atan2.  Where the two
+ * sides are within 1e-9 |X| of each other (rounding of cos, sin and atan2
+ * is ~1e-16 |X|) the atan2 test decides, so the verdict is always the
+ * atan2 test's own. */
+static int azimuth_moved(const struct contour *c, const double X[3])
+{
+    const double dot = X[0] * c->cprev + X[1] * c->sprev;
+    const double crs = X[1] * c->cprev - X[0] * c->sprev;
+    const double margin = 1e-9 * (fabs(X[0]) + fabs(X[1]));
+    if (dot - fabs(crs) > margin) return 0;
+    if (fabs(crs) - dot > margin) return 1;
+    return fabs(gcp_obs_wrap_pi(atan2(X[1], X[0]) - c->prev.phi)) > 0.25 * GCP_PI;
 }
 
 void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s)
@@ -74,8 +95,7 @@ void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const s
     }
     /* a fast azimuth (a tokamak transit, a drift faster than the cadence)
      * would alias: a point wherever the azimuth moved by pi/4 since the last */
-    if (L->cst.n && L->cst.prev.t < s->t &&
-        fabs(gcp_obs_wrap_pi(atan2(s->X[1], s->X[0]) - L->cst.prev.phi)) > 0.25 * GCP_PI)
+    if (L->cst.n && L->cst.prev.t < s->t && azimuth_moved(&L->cst, s->X))
         stream_point(o, L, id, s, s, s->t);
 }
 
@@ -110,7 +130,7 @@ void gcp_obs_finish(struct gcp_observer *o, const struct gcp_block *b)
     for (size_t i = 0; i < b->n; i++) {
         const size_t li = b->index[i];
         struct lane *L = &o->lane[li];
-        if (!L->active) continue;
+        if (!o->active[li]) continue;
         struct gcp_event e = {.id = o->id0 + (int64_t)li, .kind = GCP_EVENT_UNDEFINED, .t = b->t[i]};
         const int nomirror = L->n_mirror == 0;
         const int drifted = L->n_drift_eq + L->n_drift_st > 0;
