@@ -307,8 +307,12 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
     }
     /* The axis row, and A = 0 there.  A was integrated from the reference
      * surface; A(0, eta) is the quadratic through nodes 1, 2, 3 extrapolated
-     * to rho = 0 (A = O(rho^2) there).  Its error, smooth in eta, adds a
-     * pure gauge term f(eta) deta: no effect on the motion. */
+     * to rho = 0 (A = O(rho^2) there).  Its error adds a gauge term
+     * f(eta) deta: no effect on the exact motion, but not smooth near an
+     * elongated axis (in DIII-D a ~0.25 rad wiggle in eta, in A_eta at every
+     * rho), and a Gauss-Legendre method is not invariant under P_eta ->
+     * P_eta + q f(eta): it is why gc-gl2/gl4's energy is not bounded there
+     * (tests/unit/test_gc_symplectic_flux.c, eqdsk_long_run_energy_bounded). */
     for (size_t jj = 0; jj < ne; jj++) {
         double *r = TR + NRHO * jj, *z = TZ + NRHO * jj, *a = TA + NRHO * jj;
         r[0] = Ra, z[0] = Za;
