@@ -31,6 +31,16 @@ static inline int32_t gcp_lane_status(double r2, double p2, double z, int32_t fs
     return nonfinite * GCP_NONFINITE + (1 - nonfinite) * fs;
 }
 
+/* Whether gcp_lane_status(r2, p2, z, 0, rin2, rout2, zmax) != 0, as one
+ * predicate (the fused steps' per-step test: which status comes later from
+ * gcp_block_classify; fewer operations than the status itself).  For
+ * finite r2 + p2, !(r2 < rin2) is r2 >= rin2. */
+static inline int32_t gcp_lane_stops(double r2, double p2, double z, double rin2, double rout2,
+                                     double zmax)
+{
+    return !((fabs(r2 + p2) <= DBL_MAX) & (r2 >= rin2) & (r2 <= rout2) & (fabs(z) <= zmax));
+}
+
 /* Sets the status of each of the first n lanes, without branches:
  * NONFINITE (position, or u for full orbit / p_par and mu for guiding
  * centre when gc != 0) beats the field's verdict in b->fstatus (LEFT_GRID,

@@ -9,7 +9,7 @@
  * registers:
  *
  *   x += u hg;  B = form(x);  u = kick(u; E, B);  hg = (dt/2)/gamma(u);
- *   x += u hg;  status = gcp_lane_status(x, u)
+ *   x += u hg;  stops = gcp_lane_stops(x, u)  (gcp_lane_status != 0)
  *
  * -- the same operations in the same order as the passes (bit-identical;
  * the build keeps -ffp-contract=off) -- over tiles of GCP_FO_TILE lanes,
@@ -106,7 +106,7 @@ struct gcp_fo_fused {
                 hg[i] = g1;                                                                     \
                 const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
                 const double u2 = U * U + V * V + W * W;                                        \
-                any |= gcp_lane_status(r2, u2, Z1, 0, rin2, rout2, zmax);                       \
+                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
             }                                                                                   \
             if (any) return s + 1;                                                              \
         }                                                                                       \
