@@ -38,10 +38,11 @@
 #include "gcpush/kernels.h"
 #include "block_priv.h"
 
-/* Lanes per tile: 7 arrays of GCP_FO_TILE doubles in L1 (32 KiB on the
- * machines measured) with room for the stack and the code's constants;
- * 64 to 256 measure within noise of each other, 128 was the best
- * (tests/bench/vs_limit.sh). */
+/* Lanes per tile: 7 arrays of GCP_FO_TILE doubles (7 KiB) and the
+ * gamma scratch stay in L1 (32 KiB here) with room to spare, and a tile is
+ * 16 AVX-512 vectors, so the loop's vector body dominates its remainder.
+ * Chosen, not tuned: the fused step is bound by its multiplications
+ * (docs/DESIGN.md), not by where the tile lives once it is in L1. */
 #define GCP_FO_TILE 128
 
 /* What a tile needs, fixed for the push. */
