@@ -290,6 +290,17 @@ static int dipole_build(struct gcp_field_args *a, struct gcp_field **out, struct
     return 0;
 }
 
+/* Without corotation the dipole is the closed form GCP_POINT_B_DIPOLE
+ * (field_kernels.h: dipole_B's operations, bit-identical; the conformance
+ * battery checks it point by point); with corotation E it exports none. */
+static int dipole_point_B(const struct gcp_field *f, struct gcp_point_B *out)
+{
+    const struct dipole_params *p = f->params;
+    if (f->has_E || f->time_dependent || DIPOLE_R2_MIN != GCP_POINT_DIPOLE_R2_MIN) return 0;
+    *out = (struct gcp_point_B){.form = GCP_POINT_B_DIPOLE, .has_E = 0, .p = {p->c}};
+    return 1;
+}
+
 const struct gcp_field_type gcp_field_dipole = {
     .name = "dipole",
     .doc = "Earth's centred dipole, moment along -z: [B0] [corotation] [atmosphere] [r_outer]",
@@ -304,6 +315,7 @@ const struct gcp_field_type gcp_field_dipole = {
     .dipole_B0 = dipole_B0,
     .keys = dipole_keys,
     .build = dipole_build,
+    .point_B = dipole_point_B,
 };
 
 /* r_inner <= 0: no precipitation boundary; r_outer <= 0 or inf: no outer one. */

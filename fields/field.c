@@ -130,6 +130,12 @@ int gcp_field_psi(const struct gcp_field *f, const double x[3], double *psi)
     return f->type->psi(f, x, psi);
 }
 
+int gcp_field_point_B(const struct gcp_field *f, struct gcp_point_B *out)
+{
+    *out = (struct gcp_point_B){.form = GCP_POINT_B_NONE};
+    return f && f->type->point_B ? f->type->point_B(f, out) : 0;
+}
+
 double gcp_field_dipole_B0(const struct gcp_field *f)
 {
     if (!f || !f->type->dipole_B0 || !(gcp_field_caps(f) & GCP_CAP_DIPOLE_L)) return 0.0;

@@ -11,6 +11,7 @@
 
 #include "gcpush/error.h"
 #include "gcpush/field.h"
+#include "gcpush/field_kernels.h"
 #include "gcpush/units.h"
 
 /* A field of the given type with zeroed params of params_size bytes (none

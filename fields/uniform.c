@@ -106,6 +106,15 @@ static int uniform_build(struct gcp_field_args *a, struct gcp_field **out, struc
     return 0;
 }
 
+/* Always the closed form GCP_POINT_B_UNIFORM: B and E are its parameters. */
+static int uniform_point_B(const struct gcp_field *f, struct gcp_point_B *out)
+{
+    const struct uniform_params *p = f->params;
+    *out = (struct gcp_point_B){.form = GCP_POINT_B_UNIFORM, .has_E = f->has_E,
+                                .p = {p->B[0], p->B[1], p->B[2], p->E[0], p->E[1], p->E[2]}};
+    return 1;
+}
+
 const struct gcp_field_type gcp_field_uniform = {
     .name = "uniform",
     .doc = "constant B (and optional E): B = 0 0 1 T, E = 0 0 0 V/m",
@@ -119,6 +128,7 @@ const struct gcp_field_type gcp_field_uniform = {
     .potential = uniform_potential,
     .keys = uniform_keys,
     .build = uniform_build,
+    .point_B = uniform_point_B,
 };
 
 /* E may be NULL (no electric field). */

@@ -24,6 +24,7 @@ extern "C" {
 #endif
 
 struct gcp_error;   /* error message buffer, see error.h */
+struct gcp_point_B; /* a closed-form field, see field_kernels.h */
 
 /* What a caller asks a field for (bit set in gcp_field_sample.need). */
 enum gcp_field_need {
@@ -140,6 +141,11 @@ struct gcp_field_type {
      * (args->bad_key names the key at fault).  NULL: not a run-file model. */
     const struct gcp_field_key *keys;
     int (*build)(struct gcp_field_args *args, struct gcp_field **out, struct gcp_error *err);
+    /* Optional: 1 with *out filled when this field instance is exactly one
+     * closed form of field_kernels.h (static, defined everywhere, the same
+     * numbers as eval bit for bit), else 0.  Pushers fuse their step
+     * around the form's inline kernel; they never ask which model it is. */
+    int (*point_B)(const struct gcp_field *f, struct gcp_point_B *out);
 };
 
 struct gcp_field {
@@ -216,6 +222,10 @@ void gcp_field_eval_soa_generic(const struct gcp_field *f, double t, unsigned ne
 /* Vector potential (type->potential): see there.  GCP_ERR_UNKNOWN without one. */
 int gcp_field_potential(const struct gcp_field *f, double t, const double x[3], double A[3],
                         double dA[3][3], double *phi);
+
+/* The closed form of f (type->point_B): 1 with *out filled, or 0 (none;
+ * out->form = GCP_POINT_B_NONE). */
+int gcp_field_point_B(const struct gcp_field *f, struct gcp_point_B *out);
 
 /* Centred-dipole surface field B0 [T] of a GCP_CAP_DIPOLE_L field, else 0. */
 double gcp_field_dipole_B0(const struct gcp_field *f);

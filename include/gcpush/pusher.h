@@ -64,6 +64,8 @@ typedef void (*gcp_kick_B_batch_fn)(size_t n, double *ux, double *uy, double *uz
                                     const double *Bx, const double *By, const double *Bz,
                                     double q, double m, double dt);
 
+struct gcp_fo_fused; /* private to the library (src/pushers/fo_fused_priv.h) */
+
 struct gcp_pusher_type {
     const char *name;          /* run-file name: "boris", "vay", ... */
     const char *doc;           /* one line for --help, with the reference */
@@ -79,6 +81,10 @@ struct gcp_pusher_type {
      * chart).  The scene asks before a run, so that no run starts in which
      * every particle would fail. */
     int (*applies)(const struct gcp_field *f, char *why, size_t whylen);
+    /* Optional, the library's own full-orbit pushers: drift, field and kick
+     * fused into one loop for the closed-form fields of field_kernels.h
+     * (src/pushers/fo_fused_priv.h; NULL: the block step, the same numbers). */
+    const struct gcp_fo_fused *fused;
 };
 
 extern const struct gcp_pusher_type gcp_pusher_boris;

@@ -64,25 +64,7 @@ void gcp_block_swap_lanes(struct gcp_block *b, size_t i, size_t j)
     SWAP_(size_t, b->index, i, j);
 }
 
-/* Status of each live lane after a step, without branches:
- * NONFINITE beats the field's own verdict (LEFT_GRID, LEFT_DOMAIN), which
- * beats PRECIPITATED (|x| < r_inner) and LEFT_DOMAIN (|x| > r_outer or
- * |z| > z_max).  Returns non-zero when any lane stopped. */
-/* The status of one lane from r^2, |momentum|^2 (any finite measure of it),
- * z and the field's own verdict fs0, as arithmetic selects so the loops
- * below vectorise.  NONFINITE > field verdict > PRECIPITATED > LEFT_DOMAIN.
- * !(|a| <= DBL_MAX) is true for NaN and Inf without a call. */
-static inline int32_t lane_status(double r2, double p2, double z, int32_t fs0, double rin2,
-                                  double rout2, double zmax)
-{
-    const int32_t nonfinite = !(fabs(r2 + p2) <= DBL_MAX);
-    const int32_t below = r2 < rin2;
-    const int32_t outside = (r2 > rout2) | (fabs(z) > zmax);
-    const int32_t geo = below * GCP_PRECIPITATED + (1 - below) * outside * GCP_LEFT_DOMAIN;
-    const int32_t fs = fs0 + (fs0 == 0) * geo;
-    return nonfinite * GCP_NONFINITE + (1 - nonfinite) * fs;
-}
-
+/* Status of each live lane after a step: gcp_lane_status (block_priv.h). */
 int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field *f, int gc)
 {
     const double rin2 = f->r_inner * f->r_inner;
@@ -97,7 +79,7 @@ int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field
         const double *restrict pp = b->ppar, *restrict mu = b->mu;
         for (size_t i = 0; i < n; i++) {
             const double r2 = x[i] * x[i] + y[i] * y[i] + z[i] * z[i];
-            st[i] = lane_status(r2, pp[i] * pp[i] + mu[i], z[i], fs[i], rin2, rout2, zmax);
+            st[i] = gcp_lane_status(r2, pp[i] * pp[i] + mu[i], z[i], fs[i], rin2, rout2, zmax);
             any |= st[i];
         }
     } else {
@@ -105,7 +87,7 @@ int32_t gcp_block_classify(struct gcp_block *b, size_t n, const struct gcp_field
         for (size_t i = 0; i < n; i++) {
             const double r2 = x[i] * x[i] + y[i] * y[i] + z[i] * z[i];
             const double u2 = ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i];
-            st[i] = lane_status(r2, u2, z[i], fs[i], rin2, rout2, zmax);
+            st[i] = gcp_lane_status(r2, u2, z[i], fs[i], rin2, rout2, zmax);
             any |= st[i];
         }
     }

@@ -5,6 +5,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include <float.h>
 #include <math.h>
 
 #include "gcpush/particles.h"
@@ -12,6 +13,33 @@
 
 /* Swaps every per-lane array entry of lanes i and j. */
 void gcp_block_swap_lanes(struct gcp_block *b, size_t i, size_t j);
+
+/* The status of one lane from r^2, |momentum|^2 (any finite measure of it),
+ * z and the field's own verdict fs0, as arithmetic selects so the loops
+ * vectorise.  NONFINITE > field verdict > PRECIPITATED > LEFT_DOMAIN.
+ * !(|a| <= DBL_MAX) is true for NaN and Inf without a call.  Shared by
+ * gcp_block_classify and the fused full-orbit steps (fo_fused_priv.h),
+ * which classify inside their loop with the same verdicts. */
+static inline int32_t gcp_lane_status(double r2, double p2, double z, int32_t fs0, double rin2,
+                                      double rout2, double zmax)
+{
+    const int32_t nonfinite = !(fabs(r2 + p2) <= DBL_MAX);
+    const int32_t below = r2 < rin2;
+    const int32_t outside = (r2 > rout2) | (fabs(z) > zmax);
+    const int32_t geo = below * GCP_PRECIPITATED + (1 - below) * outside * GCP_LEFT_DOMAIN;
+    const int32_t fs = fs0 + (fs0 == 0) * geo;
+    return nonfinite * GCP_NONFINITE + (1 - nonfinite) * fs;
+}
+
+/* Whether gcp_lane_status(r2, p2, z, 0, rin2, rout2, zmax) != 0, as one
+ * predicate (the fused steps' per-step test: which status comes later from
+ * gcp_block_classify; fewer operations than the status itself).  For
+ * finite r2 + p2, !(r2 < rin2) is r2 >= rin2. */
+static inline int32_t gcp_lane_stops(double r2, double p2, double z, double rin2, double rout2,
+                                     double zmax)
+{
+    return !((fabs(r2 + p2) <= DBL_MAX) & (r2 >= rin2) & (r2 <= rout2) & (fabs(z) <= zmax));
+}
 
 /* Sets the status of each of the first n lanes, without branches:
  * NONFINITE (position, or u for full orbit / p_par and mu for guiding

@@ -3,6 +3,9 @@
  * step around it is shared (fo_step.c). */
 #include "gcpush/kernels.h"
 #include "gcpush/pusher.h"
+#include "fo_fused_priv.h"
+
+GCP_FO_FUSED_DEFINE(boris, gcp_push_boris, gcp_push_boris_B_ig, 1)
 
 const struct gcp_pusher_type gcp_pusher_boris = {
     .name = "boris",
@@ -12,4 +15,5 @@ const struct gcp_pusher_type gcp_pusher_boris = {
     .advance = gcp_block_advance_fo_opts,
     .kick = gcp_push_boris_batch,
     .kick_B = gcp_push_boris_B_batch,
+    .fused = &gcp_fo_fused_boris_,
 };

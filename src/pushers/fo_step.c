@@ -17,6 +17,7 @@
 #include "gcpush/pusher.h"
 #include "block_priv.h"
 #include "evolve_priv.h"
+#include "fo_fused_priv.h"
 
 static const struct gcp_pusher_type *const all_pushers[] = {
     &gcp_pusher_boris, &gcp_pusher_boris_zu, &gcp_pusher_vay, &gcp_pusher_higuera_cary,
@@ -84,6 +85,12 @@ struct fo_ctx {
     const struct gcp_pusher_type *p;
     double *Ex, *Ey, *Ez;          /* the block's E, or NULL without an electric field */
     gcp_kick_B_batch_fn kick_B;    /* set when there is no E and the pusher has one */
+    /* the fused step (fo_fused_priv.h): set when the field is a closed form
+     * and the pusher has a fused kernel for it */
+    gcp_fo_tile_fn tile;
+    struct gcp_fo_tile_args targs;
+    double *save;                  /* [7 b->n] the block's x, u, hg at the start of fo_steps */
+    int64_t *done;                 /* [tiles] steps each tile took */
 };
 
 /* u does not change between a step's second half drift and the next
@@ -113,9 +120,58 @@ static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block
     return 0;
 }
 
+/* The block's per-lane state that a step changes, for fo_steps' restore. */
+static void fo_state_arrays(struct gcp_block *b, double *a[7])
+{
+    a[0] = b->x, a[1] = b->y, a[2] = b->z, a[3] = b->ux, a[4] = b->uy, a[5] = b->uz, a[6] = b->hg;
+}
+
+/* Up to kmax fused steps, tile by tile (fo_fused_priv.h): each tile runs
+ * until kmax or the first step after which one of its lanes stops; the
+ * block takes the fewest steps any tile took, kd, and tiles that ran past
+ * kd are restored from `save` and run again to kd (the same arithmetic, so
+ * the same numbers: every lane then holds exactly its lock-step state after
+ * kd steps).  A stop is rare (a lane leaving the domain), so the rerun
+ * costs nothing in the usual push; the copy is one pass per call. */
+static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
+                        double t, double dt, int64_t kmax)
+{
+    struct fo_ctx *c = vctx;
+    (void)ev, (void)t, (void)dt;
+    if (!c->tile || (kmax > 1 && !c->save)) return 0;
+    double *a[7];
+    fo_state_arrays(b, a);
+    if (kmax > 1)
+        for (int k = 0; k < 7; k++) memcpy(c->save + (size_t)k * b->n, a[k], n * sizeof(double));
+    int64_t kd = kmax;
+    size_t tile = 0;
+    for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE, tile++) {
+        const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
+        const int64_t k = c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0,
+                                  a[5] + i0, a[6] + i0, nt, kd, &c->targs);
+        if (kmax > 1) c->done[tile] = k;
+        if (k < kd) kd = k;
+    }
+    if (kd < kmax) {
+        tile = 0;
+        for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE, tile++) {
+            if (c->done[tile] == kd) continue;
+            const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
+            for (int k = 0; k < 7; k++)
+                memcpy(a[k] + i0, c->save + (size_t)k * b->n + i0, nt * sizeof(double));
+            c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0, a[6] + i0,
+                    nt, kd, &c->targs);
+        }
+    }
+    /* the closed forms are defined everywhere: no field verdict */
+    memset(b->fstatus, 0, n * sizeof(int32_t));
+    return kd;
+}
+
 static const struct gcp_stepper fo_stepper = {
     .gc = 0,
     .relanes = fo_relanes,
+    .steps = fo_steps,
     .step = fo_step,
 };
 
@@ -125,15 +181,39 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
 {
     /* Chosen once: with no electric field the gathered E stays zero, or the
      * pusher's pure-magnetic kick skips the E terms altogether. */
-    struct fo_ctx c = {p, f->has_E ? b->Ex : NULL, f->has_E ? b->Ey : NULL,
-                       f->has_E ? b->Ez : NULL, f->has_E ? NULL : p->kick_B};
+    struct fo_ctx c = {.p = p,
+                       .Ex = f->has_E ? b->Ex : NULL,
+                       .Ey = f->has_E ? b->Ey : NULL,
+                       .Ez = f->has_E ? b->Ez : NULL,
+                       .kick_B = f->has_E ? NULL : p->kick_B};
     if (!f->has_E && !c.kick_B) {
         memset(b->Ex, 0, b->n * sizeof(double));
         memset(b->Ey, 0, b->n * sizeof(double));
         memset(b->Ez, 0, b->n * sizeof(double));
     }
+    /* The fused step where the field is a closed form the pusher has a
+     * kernel for (never asked which model it is: field_kernels.h). */
+    struct gcp_point_B form;
+    if (p->fused && gcp_field_point_B(f, &form) && form.form > 0 &&
+        form.form < GCP_POINT_B_NFORMS)
+        c.tile = p->fused->tile[form.form][form.has_E != 0];
+    if (c.tile) {
+        c.targs = (struct gcp_fo_tile_args){
+            .q = b->q, .m = b->m, .dt = dt, .h = 0.5 * dt, .rin2 = f->r_inner * f->r_inner,
+            .rout2 = f->r_outer * f->r_outer, .zmax = f->z_max};
+        memcpy(c.targs.p, form.p, sizeof form.p);
+        if (nsteps > 1) {
+            /* without memory, one step at a time (fo_steps with kmax = 1) */
+            c.save = malloc(7 * (b->n + 1) * sizeof(double));
+            c.done = malloc((b->n / GCP_FO_TILE + 1) * sizeof(int64_t));
+            if (!c.save || !c.done) free(c.save), free(c.done), c.save = NULL, c.done = NULL;
+        }
+    }
     const struct gcp_push_opts o = {.t0 = t0, .dt = dt, .nsteps = nsteps};
-    return gcp_evolve_inline(b, f, &o, sampler, &fo_stepper, &c);
+    const size_t live = gcp_evolve_inline(b, f, &o, sampler, &fo_stepper, &c);
+    free(c.save);
+    free(c.done);
+    return live;
 }
 
 size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,

@@ -470,16 +470,40 @@ static void part_gc(void)
 }
 
 /* ---------------------------------------------------------------------------
- * Issue 12: the pushers against ../shared/limit's kernels (b) and (c), the
- * same scene: 1 MeV protons on the equator at L = 3.5 .. 4.5, equatorial
- * pitch 30 .. 80 deg, resident block.  (b): relativistic Boris, Omega_eq(L=4)
- * dt = 0.05.  (c): gc-rk4, dt = Tb(L=4, 45 deg)/1000 with the dipole bounce
- * period Tb = 4 L R_E / v (1.30 - 0.56 sin a) (Hamlin et al. 1961 fit).
+ * Issue 12: the pushers against ../shared/limit's kernels (a), (b) and (c),
+ * the same scenes, resident block.
+ * (b), (c): 1 MeV protons on the equator at L = 3.5 .. 4.5, equatorial
+ * pitch 30 .. 80 deg.  (b): relativistic Boris, Omega_eq(L=4) dt = 0.05.
+ * (c): gc-rk4, dt = Tb(L=4, 45 deg)/1000 with the dipole bounce period
+ * Tb = 4 L R_E / v (1.30 - 0.56 sin a) (Hamlin et al. 1961 fit).
+ * (a): Boris in uniform B and E, limit_bench's scene in SI: |B| = 1 T along
+ * (0.3, 0.4, sqrt(0.75)), Omega dt = 0.1, E perpendicular to B along
+ * b x xhat with |E| = 0.05 V0 |B|, protons at x in [0, 1) m with each
+ * velocity component uniform in [-V0, V0), V0 = 1e6 m/s (gamma - 1 ~ 1e-5:
+ * kernel (a) is non-relativistic; gcpush's Boris is relativistic
+ * throughout, 2 sqrt and 3 divisions a step that (a) does not have).
  * Prints ns per particle-step; tests/bench/vs_limit.sh divides by the
  * limit kernels measured in the same `make bench`.
  * ------------------------------------------------------------------------- */
-static void init_limit_scene(struct gcp_block *b, size_t nb, int gc, double *dt)
+enum limit_kind { LIMIT_BORIS_DIPOLE, LIMIT_GC_RK4_DIPOLE, LIMIT_BORIS_UNIFORM };
+static const double LIMIT_A_V0 = 1e6; /* [m/s] */
+
+static void init_limit_scene(struct gcp_block *b, size_t nb, enum limit_kind kind, double *dt)
 {
+    const int gc = kind == LIMIT_GC_RK4_DIPOLE;
+    if (kind == LIMIT_BORIS_UNIFORM) {
+        rng = 0x452821E638D01377ull;
+        for (size_t i = 0; i < nb; i++) {
+            b->x[i] = urand(), b->y[i] = urand(), b->z[i] = urand();
+            b->ux[i] = LIMIT_A_V0 * (2.0 * urand() - 1.0);
+            b->uy[i] = LIMIT_A_V0 * (2.0 * urand() - 1.0);
+            b->uz[i] = LIMIT_A_V0 * (2.0 * urand() - 1.0);
+            b->status[i] = 0, b->steps[i] = 0, b->index[i] = i, b->t[i] = 0.0;
+        }
+        b->n_active = nb;
+        *dt = 0.1 * MP / (QP * 1.0);
+        return;
+    }
     rng = 0x13198A2E03707344ull;
     const double ek = 1.602176634e-13, mc2 = MP * GCP_C_LIGHT * GCP_C_LIGHT;
     const double g = 1.0 + ek / mc2, p = MP * GCP_C_LIGHT * sqrt(g * g - 1.0);
@@ -504,9 +528,20 @@ static void init_limit_scene(struct gcp_block *b, size_t nb, int gc, double *dt)
              : 0.05 * g * MP / (QP * GCP_EARTH_B0 / 64.0);
 }
 
-static double limit_scene(int gc, size_t nb, double total_steps)
+static struct gcp_field *limit_field(enum limit_kind kind)
 {
-    struct gcp_field *f = gcp_field_dipole_create(GCP_EARTH_B0, 0, RE + 100e3, 15.0 * RE);
+    if (kind != LIMIT_BORIS_UNIFORM)
+        return gcp_field_dipole_create(GCP_EARTH_B0, 0, RE + 100e3, 15.0 * RE);
+    const double bx = 0.3, by = 0.4, bz = sqrt(0.75);
+    const double ey = bz, ez = -by, en = sqrt(ey * ey + ez * ez); /* b x xhat */
+    const double e = 0.05 * LIMIT_A_V0 * 1.0;
+    return gcp_field_uniform_create((const double[3]){bx, by, bz},
+                                    (const double[3]){0.0, e * ey / en, e * ez / en});
+}
+
+static double limit_scene(enum limit_kind kind, size_t nb, double total_steps)
+{
+    struct gcp_field *f = limit_field(kind);
     struct gcp_block b;
     if (!f || gcp_block_alloc(&b, nb)) exit(1);
     b.q = QP, b.m = MP;
@@ -516,10 +551,10 @@ static double limit_scene(int gc, size_t nb, double total_steps)
     const int64_t nsteps = (int64_t)fmax(1.0, total_steps / (double)nb);
     double best = INFINITY, dt;
     for (int rep = 0; rep < reps; rep++) {
-        init_limit_scene(&b, nb, gc, &dt);
+        init_limit_scene(&b, nb, kind, &dt);
         size_t live;
         const double t0 = now();
-        if (gc) {
+        if (kind == LIMIT_GC_RK4_DIPOLE) {
             const struct gcp_push_opts o = {0.0, dt, nsteps, 0.0, 0.0};
             live = gcp_pusher_gc_rk4.advance(&b, f, &gcp_pusher_gc_rk4, &o, NULL);
         } else {
@@ -536,21 +571,27 @@ static double limit_scene(int gc, size_t nb, double total_steps)
     return best;
 }
 
-static void limit_rows(void)
+/* fo_only: the full-orbit rows alone (a quick look at the Boris push). */
+static void limit_rows(int fo_only)
 {
     const size_t nbs[] = {1024, 8192};
     for (size_t k = 0; k < 2; k++) {
-        printf("limit-row boris-dipole %zu %.3f\n", nbs[k], limit_scene(0, nbs[k], 1e7));
-        printf("limit-row gc-rk4-dipole %zu %.3f\n", nbs[k], limit_scene(1, nbs[k], 1e6));
+        printf("limit-row boris-uniform %zu %.3f\n", nbs[k],
+               limit_scene(LIMIT_BORIS_UNIFORM, nbs[k], 1e7));
+        printf("limit-row boris-dipole %zu %.3f\n", nbs[k],
+               limit_scene(LIMIT_BORIS_DIPOLE, nbs[k], 1e7));
+        if (!fo_only)
+            printf("limit-row gc-rk4-dipole %zu %.3f\n", nbs[k],
+                   limit_scene(LIMIT_GC_RK4_DIPOLE, nbs[k], 1e6));
     }
 }
 
 int main(int argc, char **argv)
 {
-    if (argc > 1 && strcmp(argv[1], "limit") == 0) {
+    if (argc > 1 && (strcmp(argv[1], "limit") == 0 || strcmp(argv[1], "limit-fo") == 0)) {
         if (argc > 2) scale = atof(argv[2]);
         if (!(scale > 0.0)) scale = 1.0;
-        limit_rows();
+        limit_rows(strcmp(argv[1], "limit-fo") == 0);
         return 0;
     }
     if (argc > 1 && strcmp(argv[1], "gc") == 0) { /* part 3 alone */

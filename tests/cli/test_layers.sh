@@ -1,6 +1,7 @@
 #!/bin/sh
 # The layers of docs/DESIGN.md kept true (issue 12):
-#   0 base + kernels  include/gcpush/{api,error,units,particles,kernels}.h, src/{error,units,particles}.c
+#   0 base + kernels  include/gcpush/{api,error,units,particles,kernels,field_kernels}.h,
+#                     src/{error,units,particles}.c
 #   1 fields          fields/, include/gcpush/{field,grid}.h
 #   2 pushers         src/pushers/, include/gcpush/{pusher,gc,hybrid}.h
 #   3 diagnostics     src/diag/, include/gcpush/invariants.h
@@ -35,7 +36,7 @@ fields/grid_io.c->hdf5.h"
 layer_of() { # path (repo-relative) -> layer number, or empty when not layered
     case "$1" in
     include/gcpush/api.h | include/gcpush/error.h | include/gcpush/units.h | include/gcpush/particles.h | \
-        include/gcpush/kernels.h | src/error.c | src/units.c | src/particles.c) echo 0 ;;
+        include/gcpush/kernels.h | include/gcpush/field_kernels.h | src/error.c | src/units.c | src/particles.c) echo 0 ;;
     include/gcpush/field.h | include/gcpush/grid.h | fields/*) echo 1 ;;
     include/gcpush/pusher.h | include/gcpush/gc.h | include/gcpush/hybrid.h | src/pushers/*) echo 2 ;;
     include/gcpush/invariants.h | src/diag/*) echo 3 ;;
@@ -107,7 +108,7 @@ fi
 
 # 3. Public headers of a PIC code: alone, plain cc, no MPI/HDF5 include path.
 CC_PLAIN=${CC_PLAIN:-cc}
-for h in kernels.h field.h pusher.h gc.h particles.h grid.h invariants.h error.h units.h \
+for h in kernels.h field_kernels.h field.h pusher.h gc.h particles.h grid.h invariants.h error.h units.h \
     section.h run.h sweep.h gcpush.h; do
     printf '#include <gcpush/%s>\nint gcp_layers_probe_;\n' "$h" |
         $CC_PLAIN -std=c11 -Wall -Wextra -Werror -fsyntax-only -Iinclude -x c - 2>/tmp/layers.$$ ||

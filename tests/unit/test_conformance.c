@@ -12,6 +12,8 @@
  *        bits, and the legacy eval_block, equal to gcp_field_eval point by
  *        point, bit for bit (field.h promises it: the same expressions, the
  *        build has -ffp-contract=off);
+ *        A closed form the model exports (gcp_field_point_B) equal to eval
+ *        likewise, bit for bit (the fused full-orbit step uses the form);
  *   (F2) div B = trace(grad B) = 0 to round-off and grad B against centred
  *        differences of B (tolerances derived at the check);
  *   (F3) where the model gives A (GCP_CAP_A): curl A = B from the analytic dA;
@@ -122,6 +124,28 @@ static void check_block_equals_scalar(const struct gcp_field *f, double pts[NPT]
                                   f->type->name, need, a, c, i, G[a][c][i], s.gradB[a][c]);
             }
         }
+    }
+    /* (F1') a closed form the model exports (field_kernels.h): the same B
+     * and E, bit for bit -- the fused full-orbit step relies on it */
+    struct gcp_point_B form;
+    if (gcp_field_point_B(f, &form)) {
+        for (int i = 0; i < NPT; i++) {
+            struct gcp_field_sample s;
+            double Bf[3], Ef[3];
+            sample(f, pts[i], GCP_NEED_B | GCP_NEED_E, &s);
+            gcp_point_B_eval(&form, pts[i][0], pts[i][1], pts[i][2], Bf, Ef);
+            cr_expect_eq(form.has_E, f->has_E, "%s point_B: has_E", f->type->name);
+            for (int a = 0; a < 3; a++) {
+                cr_expect(memcmp(&Bf[a], &s.B[a], sizeof(double)) == 0,
+                          "%s point_B form %d: B%d[%d] %.17g, scalar %.17g", f->type->name,
+                          form.form, a, i, Bf[a], s.B[a]);
+                cr_expect(memcmp(&Ef[a], &s.E[a], sizeof(double)) == 0,
+                          "%s point_B form %d: E%d[%d]", f->type->name, form.form, a, i);
+            }
+        }
+    } else {
+        cr_expect_eq(form.form, GCP_POINT_B_NONE, "%s: no point_B, form %d", f->type->name,
+                     form.form);
     }
     /* the legacy B (and E) block form, with and without E */
     for (int withE = 0; withE < 2; withE++) {

@@ -20,6 +20,7 @@
 
 #include "gcpush/error.h"
 #include "gcpush/field.h"
+#include "gcpush/field_kernels.h"
 #include "gcpush/gc.h"
 #include "gcpush/grid.h"
 #include "gcpush/kernels.h"

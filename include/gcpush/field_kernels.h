@@ -1,0 +1,89 @@
+/* gcpush/field_kernels.h -- closed-form point field kernels (issue 12).
+ *
+ * Kernel layer (below fields/): the B (and E) of a field model that is one
+ * closed formula, as a static inline function of the point, with the
+ * model's numbers in a small struct.  A field model that is exactly one of
+ * these forms says so through gcp_field_type.point_B (field.h): it fills a
+ * struct gcp_point_B with the form id and its parameters.  A pusher can
+ * then fuse drift, field and kick into one loop per (form, kick), chosen
+ * once per push outside the inner loop (src/pushers/fo_fused_priv.h).
+ *
+ * Which layer knows what (docs/DESIGN.md, "Point field kernels"):
+ *  - this header knows formulas, not models: "a centred dipole c (-3 z x +
+ *    r^2 zhat)/r^5", "a constant B and E";
+ *  - fields/ knows which of its models (and which instances: a dipole
+ *    without corotation, any uniform field) is one of these forms, and
+ *    checks in the conformance battery that the form gives the model's own
+ *    eval bit for bit (tests/unit/test_conformance.c);
+ *  - pushers/ see a form id, never a model: a new model with a closed form
+ *    exports a form and gets the fused loop; a model without one (grids,
+ *    callbacks, time-dependent fields) exports none and keeps the block
+ *    evaluation path.
+ *
+ * The arithmetic is that of the models' own eval, operation for operation
+ * (the build keeps -ffp-contract=off), so a fused push gives the same bits
+ * as the block push.  No errno: sqrt of r^2 >= 1 (floored). */
+#ifndef GCPUSH_FIELD_KERNELS_H
+#define GCPUSH_FIELD_KERNELS_H
+
+#include <math.h>
+
+/* The forms (0: none, the model is not one closed formula). */
+enum gcp_point_B_form {
+    GCP_POINT_B_NONE = 0,
+    GCP_POINT_B_UNIFORM = 1, /* B = (p[0], p[1], p[2]) [T], E = (p[3], p[4], p[5]) [V/m] */
+    GCP_POINT_B_DIPOLE = 2,  /* B = p[0] (-3 z x_vec + r^2 zhat) / r^5, p[0] = B0 R_E^3 [T m^3],
+                                r^2 floored at GCP_POINT_DIPOLE_R2_MIN; E = 0 */
+    GCP_POINT_B_NFORMS = 3
+};
+
+/* A static field given by one form: what gcp_field_type.point_B fills. */
+struct gcp_point_B {
+    int form;       /* enum gcp_point_B_form */
+    int has_E;      /* [bool] E != 0 (UNIFORM only) */
+    double p[6];    /* the form's parameters, above */
+};
+
+/* [m^2] the dipole's floor of r^2: x = 0 gives finite numbers instead of
+ * 0 * inf = NaN; it only changes points with r < 1 m, deep inside the
+ * Earth (fields/dipole.c's DIPOLE_R2_MIN, the same number). */
+#define GCP_POINT_DIPOLE_R2_MIN 1.0
+
+/* Centred dipole, moment along -z (Jackson, Classical Electrodynamics, 3rd
+ * ed., eq. 5.56, with m = -zhat, c = B0 R_E^3):
+ *   B = c (-3 z x_vec + r^2 zhat) / r^5,
+ *   Bx = -3 c z x / r^5,  By = -3 c z y / r^5,  Bz = c (r^2 - 3 z^2) / r^5,
+ * in the operations and order of fields/dipole.c's dipole_B (bit-identical). */
+static inline void gcp_point_B_dipole(double c, double x, double y, double z, double *bx,
+                                      double *by, double *bz)
+{
+    double r2 = x * x + y * y + z * z;
+    r2 = r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
+    const double c5 = c / (r2 * r2 * sqrt(r2));
+    const double m3z = -3.0 * c5 * z;
+    *bx = m3z * x;
+    *by = m3z * y;
+    *bz = c5 * (r2 - 3.0 * z * z);
+}
+
+/* Any form at one point: B [T] and E [V/m] (zeros where the form has
+ * none).  A switch per call: for checks and scalar use; the fused loops
+ * instantiate one form each instead. */
+static inline void gcp_point_B_eval(const struct gcp_point_B *f, double x, double y, double z,
+                                    double B[3], double E[3])
+{
+    E[0] = E[1] = E[2] = 0.0;
+    switch (f->form) {
+    case GCP_POINT_B_UNIFORM:
+        B[0] = f->p[0], B[1] = f->p[1], B[2] = f->p[2];
+        E[0] = f->p[3], E[1] = f->p[4], E[2] = f->p[5];
+        break;
+    case GCP_POINT_B_DIPOLE:
+        gcp_point_B_dipole(f->p[0], x, y, z, &B[0], &B[1], &B[2]);
+        break;
+    default:
+        B[0] = B[1] = B[2] = 0.0;
+    }
+}
+
+#endif /* GCPUSH_FIELD_KERNELS_H */

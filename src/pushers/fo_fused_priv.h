@@ -1,0 +1,137 @@
+/* Private to the pushers: the fused full-orbit step (issue 12).
+ *
+ * The block step of fo_step.c makes six passes over the block's arrays per
+ * step (drift, status reset, the field's block evaluation, kick, 1/gamma,
+ * drift) and the evolve layer a seventh (classification); with 8192 lanes
+ * every pass streams ~0.5 MB through L2.  Where the field is one closed
+ * form of field_kernels.h (gcp_field_point_B) and the pusher has a fused
+ * kernel set (gcp_pusher_type.fused), one loop does it all per lane in
+ * registers:
+ *
+ *   x += u hg;  B = form(x);  u = kick(u; E, B);  hg = (dt/2)/gamma(u);
+ *   x += u hg;  stops = gcp_lane_stops(x, u)  (gcp_lane_status != 0)
+ *
+ * -- the same operations in the same order as the passes (bit-identical;
+ * the build keeps -ffp-contract=off) -- over tiles of GCP_FO_TILE lanes,
+ * several steps per tile while the tile's 7 arrays (7 x 8 x 128 B = 7 KiB)
+ * stay in L1.  That is the limit kernel's "resident" regime (many steps
+ * per block in L1, ../shared/limit); lanes are independent, so stepping a
+ * tile ahead of the others changes no lane's arithmetic.  What must stay
+ * lock-step is what the evolve layer sees: a tile stops after the first
+ * step in which any of its lanes stops (the classification's verdict,
+ * computed in the loop), and the block's step count is the smallest over
+ * tiles -- tiles that ran further are restored and run again to it
+ * (fo_step.c fo_steps).  The evolve layer then classifies and retires as
+ * after any step, and samples at its sampling steps, which bound the steps
+ * asked for (evolve_priv.h `steps`).
+ *
+ * One tile function per (form, kick): the form's B and the kick are inline
+ * in the loop, chosen once per push (fo_ctx), never per lane or per step.
+ * Pushers see the form id only, never the model (field_kernels.h). */
+#ifndef GCPUSH_FO_FUSED_PRIV_H
+#define GCPUSH_FO_FUSED_PRIV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "gcpush/field_kernels.h"
+#include "gcpush/kernels.h"
+#include "block_priv.h"
+
+/* Lanes per tile: 7 arrays of GCP_FO_TILE doubles (7 KiB) and the
+ * gamma scratch stay in L1 (32 KiB here) with room to spare, and a tile is
+ * 16 AVX-512 vectors, so the loop's vector body dominates its remainder.
+ * Chosen, not tuned: the fused step is bound by its multiplications
+ * (docs/DESIGN.md), not by where the tile lives once it is in L1. */
+#define GCP_FO_TILE 128
+
+/* What a tile needs, fixed for the push. */
+struct gcp_fo_tile_args {
+    double q, m, dt, h;      /* [C], [kg], [s], [s] h = dt/2 */
+    double p[6];             /* the form's parameters (gcp_point_B.p) */
+    double rin2, rout2, zmax; /* the field's bounds (gcp_block_classify's) */
+};
+
+/* Up to kmax steps of lanes [0, nt) of one tile (arrays at the tile's
+ * first lane; hg = (dt/2)/gamma(u) on entry and on return): returns the
+ * steps taken, kmax or the first step after which a lane's status is
+ * non-zero. */
+typedef int64_t (*gcp_fo_tile_fn)(double *x, double *y, double *z, double *ux, double *uy,
+                                  double *uz, double *hg, size_t nt, int64_t kmax,
+                                  const struct gcp_fo_tile_args *a);
+
+/* A pusher's fused kernels, by form and by E (tile[form][has_E]; NULL:
+ * none, the block step runs). */
+struct gcp_fo_fused {
+    gcp_fo_tile_fn tile[GCP_POINT_B_NFORMS][2];
+};
+
+/* The forms' B at (X, Y, Z) from a->p (field_kernels.h). */
+#define GCP_FO_B_DIPOLE_(X, Y, Z, BX, BY, BZ) gcp_point_B_dipole(a->p[0], X, Y, Z, &BX, &BY, &BZ)
+#define GCP_FO_B_UNIFORM_(X, Y, Z, BX, BY, BZ) (BX = a->p[0], BY = a->p[1], BZ = a->p[2])
+
+/* One tile function: FORM_ is the B macro above, KICK_ a statement on the
+ * lane's U, V, W with bx, by, bz (and the form's E).  With CARRY_ = 1 the
+ * kick gets 1/gamma(u) as 1.0 / G0, G0 = gamma(u) kept per lane from the
+ * previous step's drift factor (the same sqrt of the same u: bit-identical,
+ * one sqrt a step fewer; only without E, where the kick's u- is u). */
+#define GCP_FO_TILE_DEFINE_(FNAME, FORM_, KICK_, CARRY_)                                        \
+    static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
+                         double *restrict ux, double *restrict uy, double *restrict uz,         \
+                         double *restrict hg, size_t nt, int64_t kmax,                          \
+                         const struct gcp_fo_tile_args *a)                                      \
+    {                                                                                           \
+        const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
+        const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
+        double G[GCP_FO_TILE];                                                                  \
+        (void)q, (void)m, (void)dt, (void)G;                                                    \
+        if (CARRY_)                                                                             \
+            for (size_t i = 0; i < nt; i++) G[i] = gcp_gamma_of_u(ux[i], uy[i], uz[i]);         \
+        for (int64_t s = 0; s < kmax; s++) {                                                    \
+            int32_t any = 0;                                                                    \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                double U = ux[i], V = uy[i], W = uz[i];                                         \
+                const double g0 = hg[i];                                                        \
+                const double G0 = CARRY_ ? G[i] : 1.0;                                          \
+                (void)G0;                                                                       \
+                const double X = x[i] + U * g0, Y = y[i] + V * g0, Z = z[i] + W * g0;           \
+                double bx, by, bz;                                                              \
+                FORM_(X, Y, Z, bx, by, bz);                                                     \
+                KICK_;                                                                          \
+                const double G1 = gcp_gamma_of_u(U, V, W);                                      \
+                if (CARRY_) G[i] = G1;                                                          \
+                const double g1 = h / G1;                                                       \
+                const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                 \
+                x[i] = X1, y[i] = Y1, z[i] = Z1;                                                \
+                ux[i] = U, uy[i] = V, uz[i] = W;                                                \
+                hg[i] = g1;                                                                     \
+                const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
+                const double u2 = U * U + V * V + W * W;                                        \
+                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
+            }                                                                                   \
+            if (any) return s + 1;                                                              \
+        }                                                                                       \
+        return kmax;                                                                            \
+    }
+
+/* The fused kernel set of a full-orbit pusher NAME from its scalar kicks
+ * (kernels.h): KICK(ux, uy, uz, Ex, Ey, Ez, Bx, By, Bz, q, m, dt) and
+ * KICK_B, the kick with E = 0: KICK_B(ux, uy, uz, Bx, By, Bz, q, m, dt)
+ * (the pusher's kick_B, or KICK with literal zeros: the same numbers as the
+ * zeroed E arrays of the block step), or with CARRY = 1
+ * KICK_B(..., dt, inv_gamma) (gcp_push_boris_B_ig).  Defines
+ * gcp_fo_fused_NAME_. */
+#define GCP_FO_IG_0_
+#define GCP_FO_IG_1_ , 1.0 / G0
+#define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_,                                 \
+                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_,                               \
+                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_,                              \
+                        KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0)   \
+    static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
+        .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
+                 [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}}};
+
+#endif
