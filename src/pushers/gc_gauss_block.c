@@ -63,40 +63,16 @@ static void gb_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, size_
     C->chart.lift_eval_block(&C->chart, k, np, mu, R, Z, Pe, &o, e->st);
 }
 
-/* The stage Jacobians DF of lane L (gl_lift_df's numbers) from the sample
- * at its stage points (e, index x + i m) and at the points moved along
- * dp/deta (e2): 0 or -1. */
-static int gb_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
-                 const struct gb_eval *e, const struct gb_eval *e2, size_t x, size_t m,
-                 const double *Pe)
-{
-    for (int i = 0; i < C->tab->s; i++) {
-        const size_t q = x + (size_t)i * m;
-        struct gcp_canon_lift o = {0};
-        o.Pphi = e->Pphi[q], o.eta = e->eta[q], o.Bm = e->Bm[q];
-        o.dBm[1] = e->dBm1[q], o.dBm[2] = e->dBm2[q];
-        const double g[2] = {e->dH3[q], -e->dH1[q]};
-        double H2, dH2[4];
-        const double P2 = Pe[q] + GL_FD * L->sc[1], dP = P2 - Pe[q];
-        if (C->chart.lift_ham(&C->chart, k, &o, P2, &H2, dH2)) return -1;
-        L->DF[i][0][1] = (dH2[3] - g[0]) / dP;
-        L->DF[i][1][1] = (-dH2[1] - g[1]) / dP;
-        if (e2->st[q]) return -1;
-        const double de = e2->eta[q] - e->eta[q];
-        L->DF[i][0][0] = (e2->dH3[q] - g[0]) / de;
-        L->DF[i][1][0] = (-e2->dH1[q] - g[1]) / de;
-        if (!isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1]))
-            return -1;
-    }
-    return 0;
-}
-
 /* The chunk's state (struct of arrays; lane j of the chunk, stage i at
  * i m + j) and its scratch. */
 struct gb_chunk {
     double mu[NP], R[NP], Z[NP], Pe[NP], eta[NP], K0[NP], K1[NP], pd[NP];
     double R2[NP], Z2[NP];
     double DFe0[NP], DFe1[NP]; /* the eta column of DF */
+    double DFp0[NP], DFp1[NP]; /* dF/dP_phi */
+    double hP[NP], h1[NP], h2[NP], h3[NP]; /* P_eta moved, dH/dz there (lift_ham) */
+    double t1R[NP], t1Z[NP];   /* dp/deta at the stage points (the last sample) */
+    double t2R[NP], t2Z[NP];   /* d^2 p/deta^2 there (the first iterate's) */
     double DF[GL_SMAX][2][2][GB_BLK];
     double Jinv[16][GB_BLK], z1[GB_BLK], z2[GB_BLK], z3[GB_BLK];
     double sc0[GB_BLK], sc1[GB_BLK], scp[GB_BLK], nprev[GB_BLK], nd[GB_BLK];
@@ -215,8 +191,9 @@ static void gb_update(const struct gl_tableau *T, struct gb_chunk *c, size_t m, 
         const size_t q0 = (size_t)i * m;
         for (size_t j = 0; j < m; j++) {
             const size_t q = q0 + j;
-            G[2 * i][j] = o->dH3[q] - c->K0[q] + c->DFe0[q] * c->e[i][j];
-            G[2 * i + 1][j] = -o->dH1[q] - c->K1[q] + c->DFe1[q] * c->e[i][j];
+            const double ep = c->z2[j] - o->Pphi[q];
+            G[2 * i][j] = o->dH3[q] - c->K0[q] + c->DFe0[q] * c->e[i][j] + c->DFp0[q] * ep;
+            G[2 * i + 1][j] = -o->dH1[q] - c->K1[q] + c->DFe1[q] * c->e[i][j] + c->DFp1[q] * ep;
         }
     }
     for (int r = 0; r < n; r++)
@@ -310,9 +287,10 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
             }
         }
         gb_lift(C, &k, np, c->mu, c->R, c->Z, c->Pe, &c->ev);
-        for (size_t j = 0; j < m; j++)
-            for (int i = 0; i < s; i++)
-                if (c->state[j] == GB_ITER && c->ev.st[(size_t)i * m + j]) c->state[j] = GB_FAIL;
+        for (int i = 0; i < s; i++)
+            for (size_t j = 0; j < m; j++)
+                c->state[j] = c->state[j] == GB_ITER && c->ev.st[(size_t)i * m + j] ? GB_FAIL
+                                                                                    : c->state[j];
         if (it == 0) {
             /* DF at the first iterate (gl_lift_df): the eta column from the
              * points moved by GL_FD sc0 along dp/deta */
@@ -326,22 +304,50 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
                 }
             }
             gb_lift(C, &k, np, c->mu, c->R2, c->Z2, c->Pe, &c->ev2);
-            for (size_t j = 0; j < m; j++) {
-                if (c->state[j] != GB_ITER) continue;
-                k.mu = b->mu[i0 + j];
-                if (gb_df(C, &k, &L[j], &c->ev, &c->ev2, j, m, c->Pe)) {
-                    c->state[j] = GB_FAIL;
-                    continue;
-                }
-                for (int i = 0; i < s; i++)
-                    for (int r = 0; r < 2; r++)
-                        for (int col = 0; col < 2; col++) c->DF[i][r][col][j] = L[j].DF[i][r][col];
+            /* d^2 p/deta^2 at the stages, by the same difference (the end
+             * point's guess, gcp_gl_lift_end) */
+            for (size_t q = 0; q < np; q++) {
+                const double de = c->ev2.eta[q] - c->ev.eta[q];
+                c->t2R[q] = (c->ev2.dp01[q] - c->ev.dp01[q]) / de;
+                c->t2Z[q] = (c->ev2.dp11[q] - c->ev.dp11[q]) / de;
             }
-            for (size_t j = 0; j < m; j++) /* the failed lanes' J: I (not used) */
-                for (int i = 0; i < s; i++)
-                    for (int r = 0; r < 2; r++)
-                        for (int col = 0; col < 2; col++)
-                            c->DF[i][r][col][j] = c->state[j] == GB_ITER ? c->DF[i][r][col][j] : 0.0;
+            /* the P_eta column from each sample (lift_ham), then DF (gl_lift_df's
+             * numbers, with dF/dP_phi: the Hessian of H is symmetric, so
+             * d(dH/dP_eta)/dP_phi and d(dH/deta)/dP_phi are the derivatives of
+             * the sampled dH/dP_phi along P_eta and eta) in loops over the lanes */
+            for (int i = 0; i < s; i++)
+                for (size_t j = 0; j < m; j++) {
+                    const size_t q = (size_t)i * m + j;
+                    struct gcp_canon_lift o = {0};
+                    o.Pphi = c->ev.Pphi[q], o.eta = c->ev.eta[q], o.Bm = c->ev.Bm[q];
+                    o.dBm[1] = c->ev.dBm1[q], o.dBm[2] = c->ev.dBm2[q];
+                    double H2, dH2[4] = {0.0, 0.0, 0.0, 0.0};
+                    c->hP[q] = c->Pe[q] + GL_FD * c->sc1[j];
+                    k.mu = b->mu[i0 + j];
+                    const int bad = c->state[j] != GB_ITER ||
+                                    C->chart.lift_ham(&C->chart, &k, &o, c->hP[q], &H2, dH2) ||
+                                    c->ev2.st[q];
+                    c->state[j] = bad ? GB_FAIL : c->state[j];
+                    c->h1[q] = dH2[1], c->h2[q] = dH2[2], c->h3[q] = dH2[3];
+                }
+            for (int i = 0; i < s; i++)
+                for (size_t j = 0; j < m; j++) {
+                    const size_t q = (size_t)i * m + j;
+                    const struct gb_eval *e = &c->ev, *e2 = &c->ev2;
+                    const double g0 = e->dH3[q], g1 = -e->dH1[q];
+                    const double dP = c->hP[q] - c->Pe[q], de = e2->eta[q] - e->eta[q];
+                    const double a = (c->h3[q] - g0) / dP, bb = (-c->h1[q] - g1) / dP;
+                    const double cc = (e2->dH3[q] - g0) / de, d = (-e2->dH1[q] - g1) / de;
+                    const double p0 = (c->h2[q] - e->dH2[q]) / dP;
+                    const double p1 = -(e2->dH2[q] - e->dH2[q]) / de;
+                    const int ok = c->state[j] == GB_ITER &&
+                                   fabs(a + bb + cc + d + p0 + p1) <= DBL_MAX;
+                    c->state[j] = ok || c->state[j] != GB_ITER ? c->state[j] : GB_FAIL;
+                    /* the failed lanes' J: I (not used) */
+                    c->DF[i][0][1][j] = ok ? a : 0.0, c->DF[i][1][1][j] = ok ? bb : 0.0;
+                    c->DF[i][0][0][j] = ok ? cc : 0.0, c->DF[i][1][0][j] = ok ? d : 0.0;
+                    c->DFp0[q] = p0, c->DFp1[q] = p1;
+                }
             gb_jinv(T, c, m, h);
             for (int i = 0; i < s; i++)
                 for (size_t j = 0; j < m; j++) {
@@ -350,37 +356,43 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
                 }
         }
         gb_update(T, c, m, h);
-        /* the mask: gl_step_lift's convergence and abandon tests */
+        /* the converged sample's dp/deta (gcp_gl_lift_end) */
+        for (int i = 0; i < s; i++)
+            for (size_t j = 0; j < m; j++) {
+                const size_t q = (size_t)i * m + j;
+                const int act = c->state[j] == GB_ITER;
+                c->t1R[q] = act ? c->ev.dp01[q] : c->t1R[q];
+                c->t1Z[q] = act ? c->ev.dp11[q] : c->t1Z[q];
+            }
+        /* the mask: gl_step_lift's convergence and abandon tests, by selects */
         left = 0;
         for (size_t j = 0; j < m; j++) {
-            if (c->state[j] != GB_ITER) continue;
-            const double nd = c->nd[j];
-            if (!isfinite(nd)) {
-                c->state[j] = GB_FAIL;
-                continue;
-            }
-            const double th = nd / c->nprev[j];
-            const int next_below = it > 0 && th < 1.0 && th / (1.0 - th) * nd <= GL_TOL;
-            const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
-            if (it > 1 && th > 0.5 && !stalled) c->state[j] = GB_FAIL;
-            else if (nd <= GL_TOL || next_below || stalled) c->state[j] = GB_DONE;
-            else left++;
-            c->nprev[j] = nd;
+            const int act = c->state[j] == GB_ITER;
+            const double nd = c->nd[j], th = nd / c->nprev[j];
+            const int next_below = (it > 0) & (th < 1.0) & (th / (1.0 - th) * nd <= GL_TOL);
+            const int stalled = (it > 0) & (nd <= GL_LIFT_FLOOR) & (th > 0.5);
+            const int fail = (fabs(nd) > DBL_MAX) | !(nd == nd) | ((it > 1) & (th > 0.5) & (stalled == 0));
+            const int done = (fail == 0) & ((nd <= GL_TOL) | next_below | stalled);
+            c->state[j] = act ? (fail ? GB_FAIL : done ? GB_DONE : GB_ITER) : c->state[j];
+            c->nprev[j] = act ? nd : c->nprev[j];
+            left += (size_t)(act & (fail == 0) & (done == 0));
         }
     }
     /* the converged lanes' ends (gl_finish and the rest), then their end
      * points mapped back together where the chart can (from_canon_block) */
     for (size_t j = 0; j < m; j++) {
         if (c->state[j] != GB_DONE) continue;
-        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2];
+        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], t1[GL_SMAX][2], t2[GL_SMAX][2];
         for (int st = 0; st < s; st++) {
             const size_t q = (size_t)st * m + j;
             K[st][0] = c->K0[q], K[st][1] = c->K1[q];
             pd[st][0] = c->pd[q], pd[st][1] = 1.0;
             p[st][0] = c->R[q], p[st][1] = c->Z[q];
+            t1[st][0] = c->t1R[q], t1[st][1] = c->t1Z[q];
+            t2[st][0] = c->t2R[q], t2[st][1] = c->t2Z[q];
         }
         c->save[j] = L[j];
-        gcp_gl_lift_end(C, &L[j], h, K, pd, p);
+        gcp_gl_lift_end(C, &L[j], h, K, pd, p, t1, t2);
         c->mapped[j] = 0;
     }
     if (C->chart.from_canon_block) {

@@ -22,9 +22,11 @@ struct gl_ctx {
     struct gcp_canon_chart chart;
     double sundman_a; /* [1] exponent of w = (B_ref/|B|)^a; 0: plain time steps */
     /* Lagrange weights of the lifted solver's point predictor (gc_gauss.c
-     * gl_points_extrap) by [with this step's points][have_P][node], filled
-     * once by gcp_gl_ctx_weights (have_wext = 0: computed at each use) */
-    double wext[2][3][GL_SMAX + 1][3 * GL_SMAX + 1];
+     * gl_points_extrap) by [have_P][stage][node], filled once by
+     * gcp_gl_ctx_weights (have_wext = 0: computed at each use) */
+    double wext[3][GL_SMAX][2 * GL_SMAX + 1];
+    /* and of the slope predictor (gl_predict) by [history - 2][stage][node] */
+    double wK[2][GL_SMAX][3 * GL_SMAX];
     int have_wext;
 };
 /* Fills C->wext (C->tab set). */
@@ -37,6 +39,7 @@ struct gl_lane {
                                  * [1 + i] the stage points themselves) */
     double K[GL_SMAX][2];       /* last step's stage slopes (d eta, d P_eta) */
     double K2[GL_SMAX][2];      /* the step's before */
+    double K3[GL_SMAX][2];      /* and the one before that */
     double J[16];               /* LU of the stage Jacobian (2s x 2s) */
     int piv[4];
     int have_K, have_J;
@@ -44,6 +47,8 @@ struct gl_lane {
     double sc[2];               /* [eta unit, P_eta unit] scales of eta and P_eta */
     double sc_pphi;             /* [kg m^2/s] scale of P_phi (chart residual of a stage point) */
     double DF[GL_SMAX][2][2];   /* the stage Jacobians of F behind J (lifted solver) */
+    double DFp[GL_SMAX][2];     /* dF/dP_phi at the stages (lifted solver: the linearisation
+                                 * of F at a point off the stage's P_phi) */
     double Jinv[16];            /* J^-1 (lifted solver: a product, not a solve, per iteration) */
     double pst2[GL_SMAX][2];    /* the stage points of the step before the last (lifted solver) */
     int have_P;                 /* steps whose stage points are kept: 0, 1 (aux[1 + i]), 2 (+ pst2) */
@@ -67,14 +72,15 @@ int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, doub
                      struct gl_lane *L, int lift);
 /* Pieces of the lifted solver shared with gc_gauss_block.c: its start
  * (predicted slopes K, stage points p; 0 or -1), J and J^-1 from L->DF
- * (0 or -1), and its end (a converged step's slopes K, quadrature rates pd
- * and stage points p into L). */
+ * (0 or -1), and its end (a converged step's slopes K, quadrature rates pd,
+ * stage points p with their dp/deta t1 and d^2p/deta^2 t2 into L). */
 int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                       const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2]);
 int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h);
 void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
-                     const double p[GL_SMAX][2]);
+                     const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                     const double t2[GL_SMAX][2]);
 /* The lifted solve over the n live lanes of b at once (gc_gauss_block.c;
  * gcp_gc_lane_ops.step_block), the per-lane path for lanes it fails. */
 int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,
