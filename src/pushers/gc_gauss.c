@@ -297,10 +297,11 @@ static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
     return 0;
 }
 
-/* The end of a converged step: z1 = z0 + h sum b_i K_i, the quadratures
- * phi and t, and the slopes kept for the next predictor. */
-static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
-                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2])
+/* The end of a step from its slopes K and quadrature rates pd:
+ * z1 = z0 + h sum b_i K_i, and the quadratures phi and t. */
+static void gl_end_state(const struct gl_tableau *T, const struct gl_lane *L, double h,
+                         const double K[GL_SMAX][2], const double pd[GL_SMAX][2], double z[4],
+                         double *t)
 {
     double de = 0.0, dP = 0.0, dphi = 0.0, dt = 0.0;
     for (int i = 0; i < T->s; i++) {
@@ -313,13 +314,22 @@ static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
      * addition of 2 pi where |phi| < 3 pi (exact by Sterbenz's lemma, as
      * remainder is), the library call (slow) beyond */
     const double phi = L->z[0] + h * dphi, tp = 2.0 * GCP_PI;
-    if (fabs(phi) <= GCP_PI) L->z[0] = phi;
-    else if (phi > GCP_PI && phi < 3.0 * GCP_PI) L->z[0] = phi - tp;
-    else if (phi < -GCP_PI && phi > -3.0 * GCP_PI) L->z[0] = phi + tp;
-    else L->z[0] = remainder(phi, tp);
-    L->t += h * dt;
-    L->z[1] += h * de;
-    L->z[3] += h * dP;
+    if (fabs(phi) <= GCP_PI) z[0] = phi;
+    else if (phi > GCP_PI && phi < 3.0 * GCP_PI) z[0] = phi - tp;
+    else if (phi < -GCP_PI && phi > -3.0 * GCP_PI) z[0] = phi + tp;
+    else z[0] = remainder(phi, tp);
+    *t = L->t + h * dt;
+    z[1] = L->z[1] + h * de;
+    z[2] = L->z[2];
+    z[3] = L->z[3] + h * dP;
+}
+
+/* The end of a converged step (gl_end_state) into L, and the slopes kept
+ * for the next predictor. */
+static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2])
+{
+    gl_end_state(T, L, h, K, pd, L->z, &L->t);
     memcpy(L->K3, L->K2, sizeof L->K);
     memcpy(L->K2, L->K, sizeof L->K);
     memcpy(L->K, K, sizeof L->K);
@@ -516,41 +526,51 @@ int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
     return 0;
 }
 
-/* The end of a converged lifted step (gl_finish), then the end point's
- * guess for from_canon, and the stage points kept for the next predictor.
- * The guess: the end point lies on the curve P_phi = P_phi(z0) through the
- * stage points (a fixed curve of the chart, a field line in the curl-free
- * one: smooth through the mirror points, where eta(t) turns), at eta1.
- * Taylor's polynomial in eta from the last stage point (eta_s, p_s) with
- * t1 = dp/deta there and t2 = d^2p/deta^2 (its first iterate's, by the
- * difference of DF), D = eta1 - eta_s:
+/* The end of a converged lifted step without changing L: the end state z
+ * (gl_end_state) and the end point's guess pe for from_canon.  The guess:
+ * the end point lies on the curve P_phi = P_phi(z0) through the stage points
+ * (a fixed curve of the chart, a field line in the curl-free one: smooth
+ * through the mirror points, where eta(t) turns), at eta1.  Taylor's
+ * polynomial in eta from the last stage point (eta_s, p_s) with t1 = dp/deta
+ * there and t2 = d^2p/deta^2 (its first iterate's, by the difference of DF),
+ * D = eta1 - eta_s:
  *   p1 ~ p_s + t1 D + t2 D^2 / 2,
  * and for s = 1 the cubic term from the start point p0 (eta0 - eta_s = -D):
- * minus the remainder p0 - (p_s - t1 D + t2 D^2 / 2).  An error of ~1e-6 of
- * the scale leaves from_canon two field evaluations; the polynomial in time
+ * minus the remainder p0 - (p_s - t1 D + t2 D^2 / 2).  Its error, ~1e-6 of
+ * the scale, leaves from_canon two field evaluations; the polynomial in time
  * through the stage points before (error O(h^3), ~1e-3) left it three. */
-void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
-                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
-                     const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
-                     const double t2[GL_SMAX][2])
+void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                      const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                      const double t2[GL_SMAX][2], double z[4], double pe[2])
 {
     const struct gl_tableau *T = C->tab;
     const int s = T->s;
-    const double eta0 = L->z[1], p0[2] = {L->aux[0][0], L->aux[0][1]};
-    gl_finish(T, L, h, K, pd);
+    double t;
+    gl_end_state(T, L, h, K, pd, z, &t);
     double ae = 0.0;
     for (int j = 0; j < s; j++) ae += T->a[s - 1][j] * K[j][0];
-    const double D = L->z[1] - (eta0 + h * ae);
-    double pe[2];
+    const double D = z[1] - (L->z[1] + h * ae);
     for (int r = 0; r < 2; r++) {
         pe[r] = p[s - 1][r] + t1[s - 1][r] * D + 0.5 * t2[s - 1][r] * D * D;
-        if (s == 1) pe[r] -= p0[r] - (p[0][r] - t1[0][r] * D + 0.5 * t2[0][r] * D * D);
+        if (s == 1) pe[r] -= L->aux[0][r] - (p[0][r] - t1[0][r] * D + 0.5 * t2[0][r] * D * D);
     }
     if (!isfinite(pe[0] + pe[1])) pe[0] = p[s - 1][0], pe[1] = p[s - 1][1];
+}
+
+/* The end of a converged lifted step into L (gl_finish), with the end
+ * point pe (from_canon's), and the stage points kept for the next
+ * predictor. */
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
+                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                     const double p[GL_SMAX][2], const double pe[2])
+{
+    const struct gl_tableau *T = C->tab;
+    gl_finish(T, L, h, K, pd);
     memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
     for (int r = 0; r < 2; r++) {
         L->aux[0][r] = pe[r];
-        for (int j = 0; j < s; j++) L->aux[1 + j][r] = p[j][r];
+        for (int j = 0; j < T->s; j++) L->aux[1 + j][r] = p[j][r];
     }
     L->have_P = L->have_P ? 2 : 1;
 }
@@ -629,8 +649,10 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
         if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
         if (nd <= GL_TOL || next_below || stalled) {
+            double z1[4], pe[2];
             for (int i = 0; i < s; i++) t1[i][0] = o[i].dp[0][1], t1[i][1] = o[i].dp[1][1];
-            gcp_gl_lift_end(C, L, h, K, pd, p, t1, t2);
+            gcp_gl_lift_peek(C, L, h, K, pd, p, t1, t2, z1, pe);
+            gcp_gl_lift_end(C, L, h, K, pd, p, pe);
             return 0;
         }
         nprev = nd;

@@ -44,7 +44,9 @@
 #define GL_LIFT_FLOOR 1e-13
 #define NP (GL_SMAX * GB_BLK) /* points of a chunk: stage i of lane j at i m + j */
 
-enum { GB_ITER, GB_DONE, GB_FAIL };
+/* a lane's state: iterating, converged, failed (the per-lane path), or
+ * converged with an end point the chart cannot map (the step fails) */
+enum { GB_ITER, GB_DONE, GB_FAIL, GB_UNMAPPED };
 
 /* The outputs of one block lift evaluation. */
 struct gb_eval {
@@ -81,10 +83,21 @@ struct gb_chunk {
     struct gb_eval ev, ev2;
     /* the end points mapped back (from_canon_block) */
     double ze[4][GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
-    int32_t mapped[GB_BLK];
+    int32_t mapped[GB_BLK], code[GB_BLK];
     size_t idx[GB_BLK];
-    struct gl_lane save[GB_BLK]; /* the converged lanes before their ends */
 };
+
+/* Lane j's slopes K, quadrature rates pd and stage points p from the chunk. */
+static void gb_lane_end(const struct gb_chunk *c, size_t j, size_t m, int s,
+                        double K[GL_SMAX][2], double pd[GL_SMAX][2], double p[GL_SMAX][2])
+{
+    for (int st = 0; st < s; st++) {
+        const size_t q = (size_t)st * m + j;
+        K[st][0] = c->K0[q], K[st][1] = c->K1[q];
+        pd[st][0] = c->pd[q], pd[st][1] = 1.0;
+        p[st][0] = c->R[q], p[st][1] = c->Z[q];
+    }
+}
 
 /* J = delta_ij I - h a_ij DF_i and J^-1 of every lane of the chunk (the
  * numbers of gcp_gl_lift_jinv: gl_assemble, the LU with partial pivoting
@@ -378,67 +391,64 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
             left += (size_t)(act & (fail == 0) & (done == 0));
         }
     }
-    /* the converged lanes' ends (gl_finish and the rest), then their end
-     * points mapped back together where the chart can (from_canon_block) */
+    /* the converged lanes' end states and end point guesses
+     * (gcp_gl_lift_peek), packed at the front, their end points mapped back
+     * together where the chart can (from_canon_block, else from_canon), and
+     * the lanes mapped stepped (gcp_gl_lift_end): a lane whose end point
+     * cannot be mapped keeps the start of the step (gl_step) */
+    size_t nd = 0;
     for (size_t j = 0; j < m; j++) {
         if (c->state[j] != GB_DONE) continue;
         double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], t1[GL_SMAX][2], t2[GL_SMAX][2];
+        double z[4], pe[2];
+        gb_lane_end(c, j, m, s, K, pd, p);
         for (int st = 0; st < s; st++) {
             const size_t q = (size_t)st * m + j;
-            K[st][0] = c->K0[q], K[st][1] = c->K1[q];
-            pd[st][0] = c->pd[q], pd[st][1] = 1.0;
-            p[st][0] = c->R[q], p[st][1] = c->Z[q];
             t1[st][0] = c->t1R[q], t1[st][1] = c->t1Z[q];
             t2[st][0] = c->t2R[q], t2[st][1] = c->t2Z[q];
         }
-        c->save[j] = L[j];
-        gcp_gl_lift_end(C, &L[j], h, K, pd, p, t1, t2);
-        c->mapped[j] = 0;
+        gcp_gl_lift_peek(C, &L[j], h, K, pd, p, t1, t2, z, pe);
+        for (int r = 0; r < 4; r++) c->ze[r][nd] = z[r];
+        c->a0[nd] = pe[0], c->a1[nd] = pe[1];
+        c->mapped[nd] = 0;
+        c->idx[nd++] = j;
     }
     if (C->chart.from_canon_block) {
-        size_t nd = 0;
-        for (size_t j = 0; j < m; j++)
-            if (c->state[j] == GB_DONE) c->idx[nd++] = j;
-        /* the done lanes packed at the front */
-        for (size_t a = 0; a < nd; a++) {
-            const size_t j = c->idx[a];
-            for (int r = 0; r < 4; r++) c->ze[r][a] = L[j].z[r];
-            c->a0[a] = L[j].aux[0][0], c->a1[a] = L[j].aux[0][1];
-        }
         const double *const zp[4] = {c->ze[0], c->ze[1], c->ze[2], c->ze[3]};
         double *const Xp[3] = {c->Xe[0], c->Xe[1], c->Xe[2]};
         C->chart.from_canon_block(&C->chart, &k, nd, zp, c->a0, c->a1, Xp, c->pe, c->mapped);
-        for (size_t a = nd; a-- > 0;) {
-            const size_t j = c->idx[a];
-            const int32_t ok = c->mapped[a];
-            c->mapped[a] = 0;
-            c->mapped[j] = ok;
-            if (!ok) continue;
-            L[j].aux[0][0] = c->a0[a], L[j].aux[0][1] = c->a1[a];
-            const size_t i = i0 + j;
-            b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
-            b->ppar[i] = c->pe[a];
-            b->fstatus[i] = 0;
+    }
+    for (size_t a = 0; a < nd; a++) {
+        const size_t j = c->idx[a], i = i0 + j;
+        if (!c->mapped[a]) {
+            double z[4] = {c->ze[0][a], c->ze[1][a], c->ze[2][a], c->ze[3][a]};
+            double aux[2] = {c->a0[a], c->a1[a]}, X[3], ppar;
+            const struct gcp_gc_consts kj = {b->q, b->m, b->mu[i]};
+            const int r = C->chart.from_canon(&C->chart, &kj, z, aux, X, &ppar);
+            if (r) {
+                c->state[j] = GB_UNMAPPED;
+                c->code[j] = r;
+                continue;
+            }
+            c->a0[a] = aux[0], c->a1[a] = aux[1];
+            c->Xe[0][a] = X[0], c->Xe[1][a] = X[1], c->Xe[2][a] = X[2], c->pe[a] = ppar;
         }
+        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2];
+        gb_lane_end(c, j, m, s, K, pd, p);
+        const double pe[2] = {c->a0[a], c->a1[a]};
+        gcp_gl_lift_end(C, &L[j], h, K, pd, p, pe);
+        b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
+        b->ppar[i] = c->pe[a];
+        b->fstatus[i] = 0;
     }
     int32_t failed = 0;
     for (size_t j = 0; j < m; j++) {
         const size_t i = i0 + j;
         int r = 0;
-        if (c->state[j] == GB_DONE) {
-            if (c->mapped[j]) continue;
-            double X[3], ppar;
-            const struct gcp_gc_consts kj = {b->q, b->m, b->mu[i]};
-            r = C->chart.from_canon(&C->chart, &kj, L[j].z, L[j].aux[0], X, &ppar);
-            if (r) {
-                /* nothing of the failed step is kept (gl_step) */
-                L[j] = c->save[j];
-                r = r == GCP_NONFINITE ? r : gcp_lane_fail(b, i, GCP_FAIL_CHART);
-            } else {
-                b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
-                b->ppar[i] = ppar;
-                b->fstatus[i] = 0;
-            }
+        if (c->state[j] == GB_DONE) continue;
+        if (c->state[j] == GB_UNMAPPED) {
+            /* nothing of the failed step is kept (gl_step) */
+            r = c->code[j] == GCP_NONFINITE ? GCP_NONFINITE : gcp_lane_fail(b, i, GCP_FAIL_CHART);
         } else {
             /* the lifted solve failed (or did not converge): the per-lane
              * inverting solver from the start of the step */

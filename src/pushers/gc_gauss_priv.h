@@ -72,15 +72,20 @@ int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, doub
                      struct gl_lane *L, int lift);
 /* Pieces of the lifted solver shared with gc_gauss_block.c: its start
  * (predicted slopes K, stage points p; 0 or -1), J and J^-1 from L->DF
- * (0 or -1), and its end (a converged step's slopes K, quadrature rates pd,
- * stage points p with their dp/deta t1 and d^2p/deta^2 t2 into L). */
+ * (0 or -1), and its end: gcp_gl_lift_peek, without changing L, the end
+ * state z and the end point's guess pe from a converged step's slopes K,
+ * quadrature rates pd, stage points p with their dp/deta t1 and
+ * d^2p/deta^2 t2; gcp_gl_lift_end, the step into L with the end point pe. */
 int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                       const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2]);
 int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h);
+void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                      const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                      const double t2[GL_SMAX][2], double z[4], double pe[2]);
 void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
-                     const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
-                     const double t2[GL_SMAX][2]);
+                     const double p[GL_SMAX][2], const double pe[2]);
 /* The lifted solve over the n live lanes of b at once (gc_gauss_block.c;
  * gcp_gc_lane_ops.step_block), the per-lane path for lanes it fails. */
 int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,
