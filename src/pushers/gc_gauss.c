@@ -263,7 +263,7 @@ static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
          * this step (gl_kweights): error O(h^(nh s)); nh = 3 for s = 1 (3%
          * fewer iterations than 2), 2 for s = 2 (the degree-5 extrapolation
          * over three steps is worse than the cubic) */
-        const int nh = L->have_K >= 3 && s == 1 ? 3 : 2, nn = nh * s;
+        const int nh = L->have_K >= 3 && s == 1 ? 3 : 2;
         const double(*kh[3])[2] = {L->K3, L->K2, L->K};
         for (int i = 0; i < s; i++) {
             double wl[3 * GL_SMAX];
@@ -271,10 +271,11 @@ static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
             if (C->have_wext) w = C->wK[nh - 2][i];
             else gl_kweights(T, nh, i, wl);
             K[i][0] = K[i][1] = 0.0;
-            for (int m = 0; m < nn; m++) {
-                const double *km = kh[3 - nh + m / s][m % s];
-                K[i][0] += w[m] * km[0], K[i][1] += w[m] * km[1];
-            }
+            for (int a = 0; a < nh; a++)
+                for (int j = 0; j < s; j++) {
+                    const double *km = kh[3 - nh + a][j], wm = w[a * s + j];
+                    K[i][0] += wm * km[0], K[i][1] += wm * km[1];
+                }
         }
     } else if (L->have_K) {
         /* the last step's slopes, extrapolated along their interpolating
@@ -329,7 +330,10 @@ static void gl_end_state(const struct gl_tableau *T, const struct gl_lane *L, do
 static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
                       const double K[GL_SMAX][2], const double pd[GL_SMAX][2])
 {
-    gl_end_state(T, L, h, K, pd, L->z, &L->t);
+    double z[4], t;
+    gl_end_state(T, L, h, K, pd, z, &t);
+    memcpy(L->z, z, sizeof L->z);
+    L->t = t;
     memcpy(L->K3, L->K2, sizeof L->K);
     memcpy(L->K2, L->K, sizeof L->K);
     memcpy(L->K, K, sizeof L->K);
@@ -499,20 +503,12 @@ static int gl_lift_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
                : -1;
 }
 
-/* J (gl_assemble) and its inverse, column by column from the LU. */
+/* J^-1 from L->DF (gcp_gl_jinv_blocks): 0, or -1 where it has none. */
 int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
 {
-    const int n = 2 * C->tab->s;
-    if (gl_assemble(C, L, h)) return -1;
-    for (int c = 0; c < n; c++) {
-        double col[4] = {0.0, 0.0, 0.0, 0.0};
-        col[c] = 1.0;
-        /* n constant in each branch: the solve is unrolled */
-        if (n == 4) lu_solve(L->J, L->piv, 4, col);
-        else lu_solve(L->J, L->piv, 2, col);
-        for (int r = 0; r < n; r++) L->Jinv[n * r + c] = col[r];
-    }
-    return 0;
+    const int ok = C->tab->s == 2 ? gcp_gl_jinv_blocks(C->tab, 2, h, L->DF, L->Jinv)
+                                  : gcp_gl_jinv_blocks(C->tab, 1, h, L->DF, L->Jinv);
+    return ok ? 0 : -1;
 }
 
 /* The start of a lifted step: predicted slopes K and stage points p; the
@@ -542,12 +538,11 @@ int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
 void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
                       const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
                       const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
-                      const double t2[GL_SMAX][2], double z[4], double pe[2])
+                      const double t2[GL_SMAX][2], double z[4], double *t, double pe[2])
 {
     const struct gl_tableau *T = C->tab;
     const int s = T->s;
-    double t;
-    gl_end_state(T, L, h, K, pd, z, &t);
+    gl_end_state(T, L, h, K, pd, z, t);
     double ae = 0.0;
     for (int j = 0; j < s; j++) ae += T->a[s - 1][j] * K[j][0];
     const double D = z[1] - (L->z[1] + h * ae);
@@ -558,15 +553,20 @@ void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
     if (!isfinite(pe[0] + pe[1])) pe[0] = p[s - 1][0], pe[1] = p[s - 1][1];
 }
 
-/* The end of a converged lifted step into L (gl_finish), with the end
- * point pe (from_canon's), and the stage points kept for the next
- * predictor. */
-void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
-                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
-                     const double p[GL_SMAX][2], const double pe[2])
+/* The end of a converged lifted step into L: its end state z, t
+ * (gcp_gl_lift_peek's), the end point pe (from_canon's), the slopes K and
+ * stage points p kept for the next predictor. */
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[GL_SMAX][2],
+                     const double z[4], double t, const double p[GL_SMAX][2],
+                     const double pe[2])
 {
     const struct gl_tableau *T = C->tab;
-    gl_finish(T, L, h, K, pd);
+    memcpy(L->z, z, sizeof L->z);
+    L->t = t;
+    memcpy(L->K3, L->K2, sizeof L->K);
+    memcpy(L->K2, L->K, sizeof L->K);
+    memcpy(L->K, K, sizeof L->K);
+    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
     memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
     for (int r = 0; r < 2; r++) {
         L->aux[0][r] = pe[r];
@@ -649,10 +649,10 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
         if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
         if (nd <= GL_TOL || next_below || stalled) {
-            double z1[4], pe[2];
+            double z1[4], t1e, pe[2];
             for (int i = 0; i < s; i++) t1[i][0] = o[i].dp[0][1], t1[i][1] = o[i].dp[1][1];
-            gcp_gl_lift_peek(C, L, h, K, pd, p, t1, t2, z1, pe);
-            gcp_gl_lift_end(C, L, h, K, pd, p, pe);
+            gcp_gl_lift_peek(C, L, h, K, pd, p, t1, t2, z1, &t1e, pe);
+            gcp_gl_lift_end(C, L, K, z1, t1e, p, pe);
             return 0;
         }
         nprev = nd;

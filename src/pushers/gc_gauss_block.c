@@ -13,11 +13,11 @@
  * stay branch free, and the iteration ends when no lane is iterating.
  *
  * The map is that of gl_step_lift, operation for operation (the same
- * predictor and points, gcp_gl_lift_begin; the same DF; the same J^-1 as
- * gcp_gl_lift_jinv, its LU with partial pivoting written with selects over
- * the lanes, gb_jinv; the same update, convergence and abandon tests; the
- * same end, gcp_gl_lift_end): each lane's numbers are those of the
- * per-lane solver (runs/dipole.run's output is bit-identical).  A lane
+ * predictor and points, gcp_gl_lift_begin; the same DF and dF/dP_phi; the
+ * same J^-1 as gcp_gl_lift_jinv, gb_jinv; the same update, convergence and
+ * abandon tests; the same end, gcp_gl_lift_peek and gcp_gl_lift_end): each
+ * lane's numbers are those of the per-lane solver (bench_push's gc-gl2 and
+ * gc-gl4 blocks end on the same positions to the last digit printed, 17).  A lane
  * whose lifted solve fails (predictor, a chart evaluation, a singular J, an
  * update that stops contracting, 40 iterations) takes the per-lane path
  * without the lifted solver (gcp_gl_step_lane, lift = 0: the inverting
@@ -82,7 +82,7 @@ struct gb_chunk {
     unsigned char state[GB_BLK];
     struct gb_eval ev, ev2;
     /* the end points mapped back (from_canon_block) */
-    double ze[4][GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
+    double ze[4][GB_BLK], te[GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
     int32_t mapped[GB_BLK], code[GB_BLK];
     size_t idx[GB_BLK];
 };
@@ -99,89 +99,27 @@ static void gb_lane_end(const struct gb_chunk *c, size_t j, size_t m, int s,
     }
 }
 
-/* J = delta_ij I - h a_ij DF_i and J^-1 of every lane of the chunk (the
- * numbers of gcp_gl_lift_jinv: gl_assemble, the LU with partial pivoting
- * of lu_n and lu_solve of each unit vector), the pivot choices and row
- * swaps by selects, so that the loops over the lanes vectorise; a lane
- * whose pivot is 0 or not finite fails (lu_n's -1).  They stay in the
- * chunk: a lane's own J, Jinv are not written (every lifted step builds
- * them anew, and a lane that falls back has have_J = 0 first, so the
- * inverting solver never reuses them). */
+/* J^-1 of every lane of the chunk (gcp_gl_jinv_blocks, the numbers of
+ * gcp_gl_lift_jinv) in one loop over the lanes that the compiler
+ * vectorises; a lane without one fails.  They stay in the chunk: a lane's
+ * own Jinv is not written (every lifted step builds it anew). */
 static inline __attribute__((always_inline)) void
 gb_jinv_s(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h, int s)
 {
     const int n = 2 * s;
-    double A[16][GB_BLK];
-    int piv[4][GB_BLK];
-    int bad[GB_BLK];
-    for (int i = 0; i < s; i++)
-        for (int jj = 0; jj < s; jj++)
+    for (size_t j = 0; j < m; j++) {
+        double F[GL_SMAX][2][2] = {{{0.0}}}, Ji[16];
+        for (int i = 0; i < s; i++)
             for (int r = 0; r < 2; r++)
-                for (int col = 0; col < 2; col++) {
-                    const double dl = i == jj && r == col ? 1.0 : 0.0, ha = h * T->a[i][jj];
-                    double *a = A[n * (2 * i + r) + 2 * jj + col];
-                    for (size_t j = 0; j < m; j++) a[j] = dl - ha * c->DF[i][r][col][j];
-                }
-    for (size_t j = 0; j < m; j++) bad[j] = 0;
-    for (int k = 0; k < n; k++) {
-        for (size_t j = 0; j < m; j++) {
-            int pk = k;
-            double best = fabs(A[n * k + k][j]);
-            for (int i = k + 1; i < n; i++) {
-                const double v = fabs(A[n * i + k][j]);
-                const int take = v > best;
-                pk = take ? i : pk;
-                best = take ? v : best;
-            }
-            piv[k][j] = pk;
-        }
-        for (int i = k + 1; i < n; i++)
-            for (size_t j = 0; j < m; j++) {
-                const int sw = piv[k][j] == i;
-                for (int col = 0; col < n; col++) {
-                    const double t = A[n * k + col][j], u = A[n * i + col][j];
-                    A[n * k + col][j] = sw ? u : t;
-                    A[n * i + col][j] = sw ? t : u;
-                }
-            }
-        for (size_t j = 0; j < m; j++) {
-            const double p = A[n * k + k][j];
-            bad[j] |= !(p != 0.0) | !(fabs(p) <= DBL_MAX);
-        }
-        for (int i = k + 1; i < n; i++)
-            for (size_t j = 0; j < m; j++) {
-                const double l = A[n * i + k][j] / A[n * k + k][j];
-                A[n * i + k][j] = l;
-                for (int col = k + 1; col < n; col++) A[n * i + col][j] -= l * A[n * k + col][j];
-            }
+                for (int col = 0; col < 2; col++) F[i][r][col] = c->DF[i][r][col][j];
+        const int ok = gcp_gl_jinv_blocks(T, s, h, F, Ji);
+        for (int k = 0; k < n * n; k++) c->Jinv[k][j] = Ji[k];
+        c->state[j] = !ok && c->state[j] == GB_ITER ? GB_FAIL : c->state[j];
     }
-    for (int col = 0; col < n; col++)
-        for (size_t j = 0; j < m; j++) {
-            double x[4];
-            for (int r = 0; r < n; r++) x[r] = r == col ? 1.0 : 0.0;
-            for (int k = 0; k < n; k++) {
-                const double t = x[k];
-                for (int i = k + 1; i < n; i++) {
-                    const int sw = piv[k][j] == i;
-                    const double u = x[i];
-                    x[k] = sw ? u : x[k];
-                    x[i] = sw ? t : u;
-                }
-            }
-            for (int k = 0; k < n; k++)
-                for (int i = k + 1; i < n; i++) x[i] -= A[n * i + k][j] * x[k];
-            for (int k = n - 1; k >= 0; k--) {
-                for (int jj = k + 1; jj < n; jj++) x[k] -= A[n * k + jj][j] * x[jj];
-                x[k] /= A[n * k + k][j];
-            }
-            for (int r = 0; r < n; r++) c->Jinv[n * r + col][j] = x[r];
-        }
-    for (size_t j = 0; j < m; j++)
-        c->state[j] = bad[j] && c->state[j] == GB_ITER ? GB_FAIL : c->state[j];
 }
 
 /* s constant in each branch: the loops over the matrix entries unroll and
- * those over the lanes vectorise */
+ * the one over the lanes vectorises */
 static void gb_jinv(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h)
 {
     if (T->s == 2) gb_jinv_s(T, c, m, h, 2);
@@ -407,7 +345,7 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
             t1[st][0] = c->t1R[q], t1[st][1] = c->t1Z[q];
             t2[st][0] = c->t2R[q], t2[st][1] = c->t2Z[q];
         }
-        gcp_gl_lift_peek(C, &L[j], h, K, pd, p, t1, t2, z, pe);
+        gcp_gl_lift_peek(C, &L[j], h, K, pd, p, t1, t2, z, &c->te[nd], pe);
         for (int r = 0; r < 4; r++) c->ze[r][nd] = z[r];
         c->a0[nd] = pe[0], c->a1[nd] = pe[1];
         c->mapped[nd] = 0;
@@ -436,7 +374,8 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
         double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2];
         gb_lane_end(c, j, m, s, K, pd, p);
         const double pe[2] = {c->a0[a], c->a1[a]};
-        gcp_gl_lift_end(C, &L[j], h, K, pd, p, pe);
+        const double z[4] = {c->ze[0][a], c->ze[1][a], c->ze[2][a], c->ze[3][a]};
+        gcp_gl_lift_end(C, &L[j], K, z, c->te[a], p, pe);
         b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
         b->ppar[i] = c->pe[a];
         b->fstatus[i] = 0;
