@@ -24,7 +24,9 @@
  * solver from the start of the step), exactly as gl_step_lift's failure
  * does lane by lane.  The start-of-step check (gcp_gc_check_block) and the
  * end point's mapping back (the chart's from_canon_block) are block
- * evaluations too.
+ * evaluations too.  The pieces that both solvers share after their Newton
+ * (J^-1, the end of a step: gcp_gl_lift_jinv, gcp_gl_lift_peek,
+ * gcp_gl_lift_end) are here as well.
  */
 #include <float.h>
 #include <math.h>
@@ -47,6 +49,67 @@
 /* a lane's state: iterating, converged, failed (the per-lane path), or
  * converged with an end point the chart cannot map (the step fails) */
 enum { GB_ITER, GB_DONE, GB_FAIL, GB_UNMAPPED };
+
+/* J^-1 from L->DF (gcp_gl_jinv_blocks): 0, or -1 where it has none. */
+int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
+{
+    const int ok = C->tab->s == 2 ? gcp_gl_jinv_blocks(C->tab, 2, h, L->DF, L->Jinv)
+                                  : gcp_gl_jinv_blocks(C->tab, 1, h, L->DF, L->Jinv);
+    return ok ? 0 : -1;
+}
+
+/* The end of a converged lifted step without changing L: the end state z
+ * (gcp_gl_end_state) and the end point's guess pe for from_canon.  The guess:
+ * the end point lies on the curve P_phi = P_phi(z0) through the stage points
+ * (a fixed curve of the chart, a field line in the curl-free one: smooth
+ * through the mirror points, where eta(t) turns), at eta1.  Taylor's
+ * polynomial in eta from the last stage point (eta_s, p_s) with t1 = dp/deta
+ * there and t2 = d^2p/deta^2 (its first iterate's, by the difference of DF),
+ * D = eta1 - eta_s:
+ *   p1 ~ p_s + t1 D + t2 D^2 / 2,
+ * and for s = 1 the cubic term from the start point p0 (eta0 - eta_s = -D):
+ * minus the remainder p0 - (p_s - t1 D + t2 D^2 / 2).  Its error, ~1e-6 of
+ * the scale, leaves from_canon two field evaluations; the polynomial in time
+ * through the stage points before (error O(h^3), ~1e-3) left it three. */
+void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                      const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                      const double t2[GL_SMAX][2], double z[4], double *t, double pe[2])
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s;
+    gcp_gl_end_state(T, L, h, K, pd, z, t);
+    double ae = 0.0;
+    for (int j = 0; j < s; j++) ae += T->a[s - 1][j] * K[j][0];
+    const double D = z[1] - (L->z[1] + h * ae);
+    for (int r = 0; r < 2; r++) {
+        pe[r] = p[s - 1][r] + t1[s - 1][r] * D + 0.5 * t2[s - 1][r] * D * D;
+        if (s == 1) pe[r] -= L->aux[0][r] - (p[0][r] - t1[0][r] * D + 0.5 * t2[0][r] * D * D);
+    }
+    if (!isfinite(pe[0] + pe[1])) pe[0] = p[s - 1][0], pe[1] = p[s - 1][1];
+}
+
+/* The end of a converged lifted step into L: its end state z, t
+ * (gcp_gl_lift_peek's), the end point pe (from_canon's), the slopes K and
+ * stage points p kept for the next predictor. */
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[GL_SMAX][2],
+                     const double z[4], double t, const double p[GL_SMAX][2],
+                     const double pe[2])
+{
+    const struct gl_tableau *T = C->tab;
+    memcpy(L->z, z, sizeof L->z);
+    L->t = t;
+    memcpy(L->K3, L->K2, sizeof L->K);
+    memcpy(L->K2, L->K, sizeof L->K);
+    memcpy(L->K, K, sizeof L->K);
+    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
+    memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
+    for (int r = 0; r < 2; r++) {
+        L->aux[0][r] = pe[r];
+        for (int j = 0; j < T->s; j++) L->aux[1 + j][r] = p[j][r];
+    }
+    L->have_P = L->have_P ? 2 : 1;
+}
 
 /* The outputs of one block lift evaluation. */
 struct gb_eval {

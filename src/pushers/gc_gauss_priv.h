@@ -123,6 +123,11 @@ gcp_gl_jinv_blocks(const struct gl_tableau *T, int s, double h, const double F[G
     return ok;
 }
 
+/* The end of a step from its slopes K and quadrature rates pd (gc_gauss.c):
+ * z1 = z0 + h sum b_i K_i, and the quadratures phi and t. */
+void gcp_gl_end_state(const struct gl_tableau *T, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2], double z[4],
+                      double *t);
 /* Lane set-up from block lane i (canonical state, Newton scales); t, pt,
  * Bref are the caller's.  0 or a status (gcp_gc_lane_ops.init). */
 int gcp_gl_init(const void *ctx, const struct gcp_block *b, size_t i, double t, void *lane);
@@ -136,11 +141,12 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
 int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, double h,
                      struct gl_lane *L, int lift);
 /* Pieces of the lifted solver shared with gc_gauss_block.c: its start
- * (predicted slopes K, stage points p; 0 or -1), J and J^-1 from L->DF
- * (0 or -1), and its end: gcp_gl_lift_peek, without changing L, the end
- * state z, t and the end point's guess pe from a converged step's slopes K,
- * quadrature rates pd, stage points p with their dp/deta t1 and
- * d^2p/deta^2 t2; gcp_gl_lift_end, the step into L with the end point pe. */
+ * (gc_gauss.c: predicted slopes K, stage points p; 0 or -1), J^-1 from
+ * L->DF (0 or -1), and its end (these two in gc_gauss_block.c):
+ * gcp_gl_lift_peek, without changing L, the end state z, t and the end
+ * point's guess pe from a converged step's slopes K, quadrature rates pd,
+ * stage points p with their dp/deta t1 and d^2p/deta^2 t2;
+ * gcp_gl_lift_end, the step into L with the end point pe. */
 int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                       const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2]);
 int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h);
