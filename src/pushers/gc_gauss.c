@@ -27,9 +27,9 @@
  * in (eta, P_eta) by forward differences, 1e-7 of the lane's scales),
  * kept across steps while the iteration contracts at least 10x per
  * iteration, refreshed once per step otherwise (a simplified Newton).
- * Predictor: the previous step's stage slopes extrapolated along their
- * interpolating polynomial (constant for s = 1, linear for s = 2), or F(z0)
- * at the first step.  Converged when the update of the stage values,
+ * Predictor: the stage slopes of the last steps extrapolated along their
+ * interpolating polynomial (gl_predict: of the last three steps for s = 1,
+ * two for s = 2; one at the second step), or F(z0) at the first step.  Converged when the update of the stage values,
  * relative to the lane's scales, is <= 1e-15, or has stalled at round-off
  * (<= 1e-12 and no longer halving): the test is on the increment, never a
  * fixed count.  40 iterations without convergence, a non-finite value, or a
@@ -44,15 +44,23 @@
  * solved together with K_i = F(p_i, P_eta_i) by one Newton: an iteration
  * evaluates the field once at each p_i (lift_eval: the point's P_phi, eta,
  * H's derivatives and d p/d(P_phi, eta)), solves
- *   (delta_ij I - h a_ij DF_i) d_j = F_i - K_i + DF_i (e_i, 0),
- * e_i = the stage's eta minus the point's, and moves each point by
- * d p/d(P_phi, eta) times the (P_phi, eta) it lacks.  The fixed point is the
+ *   (delta_ij I - h a_ij DF_i) d_j = F_i - K_i + DF_i (e_i, 0) + dF_i/dP_phi f_i,
+ * e_i, f_i = the stage's eta, P_phi minus the point's, and moves each point
+ * by d p/d(P_phi, eta) times the (P_phi, eta) it lacks.  The f_i term
+ * linearises F to the stage's P_phi (without it the point's P_phi residual,
+ * ~1e-5 of the scale at the predicted point, entered K uncorrected and the
+ * iteration contracted only ~1e3 per iterate: 5.0 iterates a step for
+ * gc-gl2 in bench_push's scene, 4.1 with it); dF/dP_phi comes without a
+ * field evaluation from the symmetry of H's Hessian: its rows are the
+ * derivatives of the sampled dH/dP_phi along P_eta (lift_ham) and eta (the
+ * sample DF's eta column takes).  The fixed point is the
  * same (K_i = F(Y_i) with Y_i on the chart), so the map is the same to
  * round-off.  DF is refreshed at the first iterate of every step (the eta
  * column by one field evaluation, the P_eta column from the sample:
  * lift_ham); the points are predicted from the last step's stage points
  * and the start point, and the end point's guess for from_canon from the
- * stages.  Converged as above, or when the contraction theta = nd/nprev
+ * last stage point along the curve P_phi = const (gcp_gl_lift_end).
+ * Converged as above, or when the contraction theta = nd/nprev
  * predicts the next update below the tolerance (theta/(1 - theta) nd <=
  * 1e-15, Hairer & Wanner, Solving ODEs II, sec. IV.8).  An update that
  * shrinks less than 2x above the round-off floor (after the second
@@ -228,6 +236,22 @@ static double gl_update_norm(const struct gl_tableau *T, const struct gl_lane *L
     return nd;
 }
 
+/* The weights of gl_predict's extrapolation of the slopes of the last nh
+ * steps (nodes c_j - nh .. c_j - 1 in units of h) to the node c_i: their
+ * interpolating polynomial of degree nh s - 1. */
+static void gl_kweights(const struct gl_tableau *T, int nh, int i, double *w)
+{
+    const int s = T->s, nn = nh * s;
+    double x[3 * GL_SMAX];
+    for (int a = 0; a < nh; a++)
+        for (int j = 0; j < s; j++) x[a * s + j] = T->c[j] - (double)(nh - a);
+    for (int m = 0; m < nn; m++) {
+        w[m] = 1.0;
+        for (int l = 0; l < nn; l++)
+            if (l != m) w[m] *= (T->c[i] - x[l]) / (x[m] - x[l]);
+    }
+}
+
 /* The predictor of the stage slopes K (see the header of this file). */
 static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                       const struct gl_lane *L, double K[GL_SMAX][2])
@@ -235,20 +259,23 @@ static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
     const struct gl_tableau *T = C->tab;
     const int s = T->s;
     if (L->have_K >= 2) {
-        /* the slopes of the last two steps (nodes c_j - 2 and c_j - 1 in
-         * units of h) extrapolated by their interpolating polynomial of
-         * degree 2s - 1 to the nodes c_i of this step: error O(h^2s) */
-        double x[2 * GL_SMAX];
-        for (int j = 0; j < s; j++) x[j] = T->c[j] - 2.0, x[s + j] = T->c[j] - 1.0;
+        /* the slopes of the last nh steps extrapolated to the nodes c_i of
+         * this step (gl_kweights): error O(h^(nh s)); nh = 3 for s = 1 (3%
+         * fewer iterations than 2), 2 for s = 2 (the degree-5 extrapolation
+         * over three steps is worse than the cubic) */
+        const int nh = L->have_K >= 3 && s == 1 ? 3 : 2;
+        const double(*kh[3])[2] = {L->K3, L->K2, L->K};
         for (int i = 0; i < s; i++) {
+            double wl[3 * GL_SMAX];
+            const double *w = wl;
+            if (C->have_wext) w = C->wK[nh - 2][i];
+            else gl_kweights(T, nh, i, wl);
             K[i][0] = K[i][1] = 0.0;
-            for (int m = 0; m < 2 * s; m++) {
-                double w = 1.0;
-                for (int l = 0; l < 2 * s; l++)
-                    if (l != m) w *= (T->c[i] - x[l]) / (x[m] - x[l]);
-                const double *km = m < s ? L->K2[m] : L->K[m - s];
-                K[i][0] += w * km[0], K[i][1] += w * km[1];
-            }
+            for (int a = 0; a < nh; a++)
+                for (int j = 0; j < s; j++) {
+                    const double *km = kh[3 - nh + a][j], wm = w[a * s + j];
+                    K[i][0] += wm * km[0], K[i][1] += wm * km[1];
+                }
         }
     } else if (L->have_K) {
         /* the last step's slopes, extrapolated along their interpolating
@@ -271,10 +298,9 @@ static int gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
     return 0;
 }
 
-/* The end of a converged step: z1 = z0 + h sum b_i K_i, the quadratures
- * phi and t, and the slopes kept for the next predictor. */
-static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
-                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2])
+void gcp_gl_end_state(const struct gl_tableau *T, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2], double z[4],
+                      double *t)
 {
     double de = 0.0, dP = 0.0, dphi = 0.0, dt = 0.0;
     for (int i = 0; i < T->s; i++) {
@@ -283,13 +309,33 @@ static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
         dphi += T->b[i] * pd[i][0];
         dt += T->b[i] * pd[i][1];
     }
-    L->z[0] = remainder(L->z[0] + h * dphi, 2.0 * GCP_PI);
-    L->t += h * dt;
-    L->z[1] += h * de;
-    L->z[3] += h * dP;
+    /* phi + h dphi into [-pi, pi]: remainder's value, by one subtraction or
+     * addition of 2 pi where |phi| < 3 pi (exact by Sterbenz's lemma, as
+     * remainder is), the library call (slow) beyond */
+    const double phi = L->z[0] + h * dphi, tp = 2.0 * GCP_PI;
+    if (fabs(phi) <= GCP_PI) z[0] = phi;
+    else if (phi > GCP_PI && phi < 3.0 * GCP_PI) z[0] = phi - tp;
+    else if (phi < -GCP_PI && phi > -3.0 * GCP_PI) z[0] = phi + tp;
+    else z[0] = remainder(phi, tp);
+    *t = L->t + h * dt;
+    z[1] = L->z[1] + h * de;
+    z[2] = L->z[2];
+    z[3] = L->z[3] + h * dP;
+}
+
+/* The end of a converged step (gcp_gl_end_state) into L, and the slopes kept
+ * for the next predictor. */
+static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2])
+{
+    double z[4], t;
+    gcp_gl_end_state(T, L, h, K, pd, z, &t);
+    memcpy(L->z, z, sizeof L->z);
+    L->t = t;
+    memcpy(L->K3, L->K2, sizeof L->K);
     memcpy(L->K2, L->K, sizeof L->K);
     memcpy(L->K, K, sizeof L->K);
-    L->have_K = L->have_K ? 2 : 1;
+    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
 }
 
 /* One step through the chart's inversion (charts without lift_eval). */
@@ -365,54 +411,51 @@ static void gl_lagrange(const double *x, int m, double xi, double *w)
 }
 
 /* The nodes (in units of h from the start of the step) of the points that
- * gl_points_extrap interpolates: without cur, the stage points of the last
- * two steps (nodes c_j - 2, c_j - 1, as far as kept: have_P) and the start
- * (node 0); with cur (this step's stage points, nodes c_j), the last step's
- * stage points, the start and cur.  Returns their count. */
-static int gl_extrap_nodes(const struct gl_tableau *T, int have_P, int cur, double *x)
+ * gl_points_extrap interpolates: the stage points of the last two steps
+ * (nodes c_j - 2, c_j - 1, as far as kept: have_P) and the start (node 0).
+ * Returns their count. */
+static int gl_extrap_nodes(const struct gl_tableau *T, int have_P, double *x)
 {
     const int s = T->s;
     int m = 0;
-    for (int j = 0; j < s && !cur && have_P >= 2; j++) x[m++] = T->c[j] - 2.0;
+    for (int j = 0; j < s && have_P >= 2; j++) x[m++] = T->c[j] - 2.0;
     for (int j = 0; j < s && have_P >= 1; j++) x[m++] = T->c[j] - 1.0;
     x[m++] = 0.0;
-    for (int j = 0; j < s && cur; j++) x[m++] = T->c[j];
     return m;
 }
 
 void gcp_gl_ctx_weights(struct gl_ctx *C)
 {
     const struct gl_tableau *T = C->tab;
-    double x[3 * GL_SMAX + 1];
-    for (int cur = 0; cur < 2; cur++)
-        for (int hp = 0; hp < 3; hp++)
-            for (int i = 0; i <= T->s; i++) {
-                const int m = gl_extrap_nodes(T, hp, cur, x);
-                gl_lagrange(x, m, i < T->s ? T->c[i] : 1.0, C->wext[cur][hp][i]);
-            }
+    double x[2 * GL_SMAX + 1];
+    for (int hp = 0; hp < 3; hp++)
+        for (int i = 0; i < T->s; i++) {
+            const int m = gl_extrap_nodes(T, hp, x);
+            gl_lagrange(x, m, T->c[i], C->wext[hp][i]);
+        }
+    for (int nh = 2; nh <= 3; nh++)
+        for (int i = 0; i < T->s; i++) gl_kweights(T, nh, i, C->wK[nh - 2][i]);
     C->have_wext = 1;
 }
 
-/* The chart point at node xi = c_wi (wi < s) or 1 (wi = s) by the
- * polynomial through the kept points (gl_extrap_nodes), with the weights
- * of gcp_gl_ctx_weights where C has them. */
-static void gl_points_extrap(const struct gl_ctx *C, const struct gl_lane *L,
-                             const double cur[GL_SMAX][2], int wi, double *out)
+/* The chart point at node c_wi by the polynomial through the kept points
+ * (gl_extrap_nodes), with the weights of gcp_gl_ctx_weights where C has
+ * them. */
+static void gl_points_extrap(const struct gl_ctx *C, const struct gl_lane *L, int wi, double *out)
 {
     const struct gl_tableau *T = C->tab;
     const int s = T->s, hp = L->have_P < 2 ? L->have_P : 2;
-    double x[3 * GL_SMAX + 1], v[3 * GL_SMAX + 1][2], wl[3 * GL_SMAX + 1];
-    const int m = gl_extrap_nodes(T, hp, cur != NULL, x);
+    double x[2 * GL_SMAX + 1], v[2 * GL_SMAX + 1][2], wl[2 * GL_SMAX + 1];
+    const int m = gl_extrap_nodes(T, hp, x);
     const double *w = wl;
-    if (C->have_wext) w = C->wext[cur != NULL][hp][wi];
-    else gl_lagrange(x, m, wi < s ? T->c[wi] : 1.0, wl);
+    if (C->have_wext) w = C->wext[hp][wi];
+    else gl_lagrange(x, m, T->c[wi], wl);
     int a = 0;
-    for (int j = 0; j < s && !cur && hp >= 2; j++, a++)
+    for (int j = 0; j < s && hp >= 2; j++, a++)
         v[a][0] = L->pst2[j][0], v[a][1] = L->pst2[j][1];
     for (int j = 0; j < s && hp >= 1; j++, a++)
         v[a][0] = L->aux[1 + j][0], v[a][1] = L->aux[1 + j][1];
     v[a][0] = L->aux[0][0], v[a][1] = L->aux[0][1], a++;
-    for (int j = 0; j < s && cur; j++, a++) v[a][0] = cur[j][0], v[a][1] = cur[j][1];
     out[0] = out[1] = 0.0;
     for (int k = 0; k < m; k++) out[0] += w[k] * v[k][0], out[1] += w[k] * v[k][1];
 }
@@ -432,7 +475,7 @@ static int gl_lift_stage(const struct gl_ctx *C, const struct gcp_gc_consts *k,
  * sample o itself (lift_ham: no field evaluation). */
 static int gl_lift_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
                       int i, const double p[2], double Peta, const struct gcp_canon_lift *o,
-                      const double g[2])
+                      const double g[2], double t2[2])
 {
     struct gcp_canon_lift o2 = *o;
     double g2[2], q2[2];
@@ -442,29 +485,20 @@ static int gl_lift_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
         return -1;
     L->DF[i][0][1] = (g2[0] - g[0]) / dP;
     L->DF[i][1][1] = (g2[1] - g[1]) / dP;
+    L->DFp[i][0] = (o2.dH[2] - o->dH[2]) / dP;
     const double e = GL_FD * L->sc[0];
     const double p2[2] = {p[0] + o->dp[0][1] * e, p[1] + o->dp[1][1] * e};
     if (gl_lift_stage(C, k, L, p2, Peta, &o2, g2, q2)) return -1;
     const double de = o2.eta - o->eta;
     L->DF[i][0][0] = (g2[0] - g[0]) / de;
     L->DF[i][1][0] = (g2[1] - g[1]) / de;
-    return isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1]) ? 0 : -1;
-}
-
-/* J (gl_assemble) and its inverse, column by column from the LU. */
-int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
-{
-    const int n = 2 * C->tab->s;
-    if (gl_assemble(C, L, h)) return -1;
-    for (int c = 0; c < n; c++) {
-        double col[4] = {0.0, 0.0, 0.0, 0.0};
-        col[c] = 1.0;
-        /* n constant in each branch: the solve is unrolled */
-        if (n == 4) lu_solve(L->J, L->piv, 4, col);
-        else lu_solve(L->J, L->piv, 2, col);
-        for (int r = 0; r < n; r++) L->Jinv[n * r + c] = col[r];
-    }
-    return 0;
+    L->DFp[i][1] = -(o2.dH[2] - o->dH[2]) / de;
+    t2[0] = (o2.dp[0][1] - o->dp[0][1]) / de; /* d^2 p/deta^2 (gcp_gl_lift_end) */
+    t2[1] = (o2.dp[1][1] - o->dp[1][1]) / de;
+    return isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1] +
+                    L->DFp[i][0] + L->DFp[i][1])
+               ? 0
+               : -1;
 }
 
 /* The start of a lifted step: predicted slopes K and stage points p; the
@@ -474,28 +508,8 @@ int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                       const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2])
 {
     if (!(L->sc_pphi > 0.0) || gl_predict(C, k, L, K)) return -1;
-    for (int i = 0; i < C->tab->s; i++) gl_points_extrap(C, L, NULL, i, p[i]);
+    for (int i = 0; i < C->tab->s; i++) gl_points_extrap(C, L, i, p[i]);
     return 0;
-}
-
-/* The end of a converged lifted step (gl_finish), then the end point's
- * guess for from_canon: the polynomial through the last step's stage
- * points, the start and this step's stages at 1; and the stage points kept
- * for the next predictor. */
-void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
-                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
-                     const double p[GL_SMAX][2])
-{
-    const struct gl_tableau *T = C->tab;
-    gl_finish(T, L, h, K, pd);
-    double pe[2];
-    gl_points_extrap(C, L, p, T->s, pe);
-    memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
-    for (int r = 0; r < 2; r++) {
-        L->aux[0][r] = pe[r];
-        for (int j = 0; j < T->s; j++) L->aux[1 + j][r] = p[j][r];
-    }
-    L->have_P = L->have_P ? 2 : 1;
 }
 
 /* One step by the lifted solver (charts with lift_eval; see the header). */
@@ -505,6 +519,7 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
     const struct gl_tableau *T = C->tab;
     const int s = T->s, n = 2 * s;
     double K[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], Pe[GL_SMAX];
+    double t1[GL_SMAX][2], t2[GL_SMAX][2];
     struct gcp_canon_lift o[GL_SMAX];
     if (gcp_gl_lift_begin(C, k, L, K, p)) return GCP_STEP_FAILED;
     /* DF at the first iterate of every step (one field evaluation a stage),
@@ -522,14 +537,17 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         }
         if (it == 0) {
             for (int i = 0; i < s; i++)
-                if (gl_lift_df(C, k, L, i, p[i], Pe[i], &o[i], g[i])) return GCP_STEP_FAILED;
+                if (gl_lift_df(C, k, L, i, p[i], Pe[i], &o[i], g[i], t2[i]))
+                    return GCP_STEP_FAILED;
             if (gcp_gl_lift_jinv(C, L, h)) return GCP_STEP_FAILED;
         }
-        /* K_i + d_i = F(point_i) + DF_i (e_i + h (A d)_i, h (A d)_i^P) */
+        /* K_i + d_i = F(point_i) + DF_i (e_i + h (A d)_i, h (A d)_i^P)
+         *                        + dF/dP_phi (P_phi(z0) - P_phi(point_i)) */
         double G[4], d[4], nd = 0.0;
         for (int i = 0; i < s; i++) {
-            G[2 * i] = g[i][0] - K[i][0] + L->DF[i][0][0] * e[i];
-            G[2 * i + 1] = g[i][1] - K[i][1] + L->DF[i][1][0] * e[i];
+            const double ep = L->z[2] - o[i].Pphi;
+            G[2 * i] = g[i][0] - K[i][0] + L->DF[i][0][0] * e[i] + L->DFp[i][0] * ep;
+            G[2 * i + 1] = g[i][1] - K[i][1] + L->DF[i][1][0] * e[i] + L->DFp[i][1] * ep;
         }
         for (int r = 0; r < n; r++) {
             d[r] = 0.0;
@@ -568,7 +586,10 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
         const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
         if (it > 1 && th > 0.5 && !stalled) return GCP_STEP_FAILED;
         if (nd <= GL_TOL || next_below || stalled) {
-            gcp_gl_lift_end(C, L, h, K, pd, p);
+            double z1[4], t1e, pe[2];
+            for (int i = 0; i < s; i++) t1[i][0] = o[i].dp[0][1], t1[i][1] = o[i].dp[1][1];
+            gcp_gl_lift_peek(C, L, h, K, pd, p, t1, t2, z1, &t1e, pe);
+            gcp_gl_lift_end(C, L, K, z1, t1e, p, pe);
             return 0;
         }
         nprev = nd;

@@ -13,18 +13,20 @@
  * stay branch free, and the iteration ends when no lane is iterating.
  *
  * The map is that of gl_step_lift, operation for operation (the same
- * predictor and points, gcp_gl_lift_begin; the same DF; the same J^-1 as
- * gcp_gl_lift_jinv, its LU with partial pivoting written with selects over
- * the lanes, gb_jinv; the same update, convergence and abandon tests; the
- * same end, gcp_gl_lift_end): each lane's numbers are those of the
- * per-lane solver (runs/dipole.run's output is bit-identical).  A lane
+ * predictor and points, gcp_gl_lift_begin; the same DF and dF/dP_phi; the
+ * same J^-1 as gcp_gl_lift_jinv, gb_jinv; the same update, convergence and
+ * abandon tests; the same end, gcp_gl_lift_peek and gcp_gl_lift_end): each
+ * lane's numbers are those of the per-lane solver (bench_push's gc-gl2 and
+ * gc-gl4 blocks end on the same positions to the last digit printed, 17).  A lane
  * whose lifted solve fails (predictor, a chart evaluation, a singular J, an
  * update that stops contracting, 40 iterations) takes the per-lane path
  * without the lifted solver (gcp_gl_step_lane, lift = 0: the inverting
  * solver from the start of the step), exactly as gl_step_lift's failure
  * does lane by lane.  The start-of-step check (gcp_gc_check_block) and the
  * end point's mapping back (the chart's from_canon_block) are block
- * evaluations too.
+ * evaluations too.  The pieces that both solvers share after their Newton
+ * (J^-1, the end of a step: gcp_gl_lift_jinv, gcp_gl_lift_peek,
+ * gcp_gl_lift_end) are here as well.
  */
 #include <float.h>
 #include <math.h>
@@ -44,7 +46,70 @@
 #define GL_LIFT_FLOOR 1e-13
 #define NP (GL_SMAX * GB_BLK) /* points of a chunk: stage i of lane j at i m + j */
 
-enum { GB_ITER, GB_DONE, GB_FAIL };
+/* a lane's state: iterating, converged, failed (the per-lane path), or
+ * converged with an end point the chart cannot map (the step fails) */
+enum { GB_ITER, GB_DONE, GB_FAIL, GB_UNMAPPED };
+
+/* J^-1 from L->DF (gcp_gl_jinv_blocks): 0, or -1 where it has none. */
+int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
+{
+    const int ok = C->tab->s == 2 ? gcp_gl_jinv_blocks(C->tab, 2, h, L->DF, L->Jinv)
+                                  : gcp_gl_jinv_blocks(C->tab, 1, h, L->DF, L->Jinv);
+    return ok ? 0 : -1;
+}
+
+/* The end of a converged lifted step without changing L: the end state z
+ * (gcp_gl_end_state) and the end point's guess pe for from_canon.  The guess:
+ * the end point lies on the curve P_phi = P_phi(z0) through the stage points
+ * (a fixed curve of the chart, a field line in the curl-free one: smooth
+ * through the mirror points, where eta(t) turns), at eta1.  Taylor's
+ * polynomial in eta from the last stage point (eta_s, p_s) with t1 = dp/deta
+ * there and t2 = d^2p/deta^2 (its first iterate's, by the difference of DF),
+ * D = eta1 - eta_s:
+ *   p1 ~ p_s + t1 D + t2 D^2 / 2,
+ * and for s = 1 the cubic term from the start point p0 (eta0 - eta_s = -D):
+ * minus the remainder p0 - (p_s - t1 D + t2 D^2 / 2).  Its error, ~1e-6 of
+ * the scale, leaves from_canon two field evaluations; the polynomial in time
+ * through the stage points before (error O(h^3), ~1e-3) left it three. */
+void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                      const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                      const double t2[GL_SMAX][2], double z[4], double *t, double pe[2])
+{
+    const struct gl_tableau *T = C->tab;
+    const int s = T->s;
+    gcp_gl_end_state(T, L, h, K, pd, z, t);
+    double ae = 0.0;
+    for (int j = 0; j < s; j++) ae += T->a[s - 1][j] * K[j][0];
+    const double D = z[1] - (L->z[1] + h * ae);
+    for (int r = 0; r < 2; r++) {
+        pe[r] = p[s - 1][r] + t1[s - 1][r] * D + 0.5 * t2[s - 1][r] * D * D;
+        if (s == 1) pe[r] -= L->aux[0][r] - (p[0][r] - t1[0][r] * D + 0.5 * t2[0][r] * D * D);
+    }
+    if (!isfinite(pe[0] + pe[1])) pe[0] = p[s - 1][0], pe[1] = p[s - 1][1];
+}
+
+/* The end of a converged lifted step into L: its end state z, t
+ * (gcp_gl_lift_peek's), the end point pe (from_canon's), the slopes K and
+ * stage points p kept for the next predictor. */
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[GL_SMAX][2],
+                     const double z[4], double t, const double p[GL_SMAX][2],
+                     const double pe[2])
+{
+    const struct gl_tableau *T = C->tab;
+    memcpy(L->z, z, sizeof L->z);
+    L->t = t;
+    memcpy(L->K3, L->K2, sizeof L->K);
+    memcpy(L->K2, L->K, sizeof L->K);
+    memcpy(L->K, K, sizeof L->K);
+    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
+    memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
+    for (int r = 0; r < 2; r++) {
+        L->aux[0][r] = pe[r];
+        for (int j = 0; j < T->s; j++) L->aux[1 + j][r] = p[j][r];
+    }
+    L->have_P = L->have_P ? 2 : 1;
+}
 
 /* The outputs of one block lift evaluation. */
 struct gb_eval {
@@ -63,40 +128,16 @@ static void gb_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, size_
     C->chart.lift_eval_block(&C->chart, k, np, mu, R, Z, Pe, &o, e->st);
 }
 
-/* The stage Jacobians DF of lane L (gl_lift_df's numbers) from the sample
- * at its stage points (e, index x + i m) and at the points moved along
- * dp/deta (e2): 0 or -1. */
-static int gb_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
-                 const struct gb_eval *e, const struct gb_eval *e2, size_t x, size_t m,
-                 const double *Pe)
-{
-    for (int i = 0; i < C->tab->s; i++) {
-        const size_t q = x + (size_t)i * m;
-        struct gcp_canon_lift o = {0};
-        o.Pphi = e->Pphi[q], o.eta = e->eta[q], o.Bm = e->Bm[q];
-        o.dBm[1] = e->dBm1[q], o.dBm[2] = e->dBm2[q];
-        const double g[2] = {e->dH3[q], -e->dH1[q]};
-        double H2, dH2[4];
-        const double P2 = Pe[q] + GL_FD * L->sc[1], dP = P2 - Pe[q];
-        if (C->chart.lift_ham(&C->chart, k, &o, P2, &H2, dH2)) return -1;
-        L->DF[i][0][1] = (dH2[3] - g[0]) / dP;
-        L->DF[i][1][1] = (-dH2[1] - g[1]) / dP;
-        if (e2->st[q]) return -1;
-        const double de = e2->eta[q] - e->eta[q];
-        L->DF[i][0][0] = (e2->dH3[q] - g[0]) / de;
-        L->DF[i][1][0] = (-e2->dH1[q] - g[1]) / de;
-        if (!isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1]))
-            return -1;
-    }
-    return 0;
-}
-
 /* The chunk's state (struct of arrays; lane j of the chunk, stage i at
  * i m + j) and its scratch. */
 struct gb_chunk {
     double mu[NP], R[NP], Z[NP], Pe[NP], eta[NP], K0[NP], K1[NP], pd[NP];
     double R2[NP], Z2[NP];
     double DFe0[NP], DFe1[NP]; /* the eta column of DF */
+    double DFp0[NP], DFp1[NP]; /* dF/dP_phi */
+    double hP[NP], h1[NP], h2[NP], h3[NP]; /* P_eta moved, dH/dz there (lift_ham) */
+    double t1R[NP], t1Z[NP];   /* dp/deta at the stage points (the last sample) */
+    double t2R[NP], t2Z[NP];   /* d^2 p/deta^2 there (the first iterate's) */
     double DF[GL_SMAX][2][2][GB_BLK];
     double Jinv[16][GB_BLK], z1[GB_BLK], z2[GB_BLK], z3[GB_BLK];
     double sc0[GB_BLK], sc1[GB_BLK], scp[GB_BLK], nprev[GB_BLK], nd[GB_BLK];
@@ -104,95 +145,44 @@ struct gb_chunk {
     unsigned char state[GB_BLK];
     struct gb_eval ev, ev2;
     /* the end points mapped back (from_canon_block) */
-    double ze[4][GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
-    int32_t mapped[GB_BLK];
+    double ze[4][GB_BLK], te[GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
+    int32_t mapped[GB_BLK], code[GB_BLK];
     size_t idx[GB_BLK];
-    struct gl_lane save[GB_BLK]; /* the converged lanes before their ends */
 };
 
-/* J = delta_ij I - h a_ij DF_i and J^-1 of every lane of the chunk (the
- * numbers of gcp_gl_lift_jinv: gl_assemble, the LU with partial pivoting
- * of lu_n and lu_solve of each unit vector), the pivot choices and row
- * swaps by selects, so that the loops over the lanes vectorise; a lane
- * whose pivot is 0 or not finite fails (lu_n's -1).  They stay in the
- * chunk: a lane's own J, Jinv are not written (every lifted step builds
- * them anew, and a lane that falls back has have_J = 0 first, so the
- * inverting solver never reuses them). */
+/* Lane j's slopes K, quadrature rates pd and stage points p from the chunk. */
+static void gb_lane_end(const struct gb_chunk *c, size_t j, size_t m, int s,
+                        double K[GL_SMAX][2], double pd[GL_SMAX][2], double p[GL_SMAX][2])
+{
+    for (int st = 0; st < s; st++) {
+        const size_t q = (size_t)st * m + j;
+        K[st][0] = c->K0[q], K[st][1] = c->K1[q];
+        pd[st][0] = c->pd[q], pd[st][1] = 1.0;
+        p[st][0] = c->R[q], p[st][1] = c->Z[q];
+    }
+}
+
+/* J^-1 of every lane of the chunk (gcp_gl_jinv_blocks, the numbers of
+ * gcp_gl_lift_jinv) in one loop over the lanes that the compiler
+ * vectorises; a lane without one fails.  They stay in the chunk: a lane's
+ * own Jinv is not written (every lifted step builds it anew). */
 static inline __attribute__((always_inline)) void
 gb_jinv_s(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h, int s)
 {
     const int n = 2 * s;
-    double A[16][GB_BLK];
-    int piv[4][GB_BLK];
-    int bad[GB_BLK];
-    for (int i = 0; i < s; i++)
-        for (int jj = 0; jj < s; jj++)
+    for (size_t j = 0; j < m; j++) {
+        double F[GL_SMAX][2][2] = {{{0.0}}}, Ji[16];
+        for (int i = 0; i < s; i++)
             for (int r = 0; r < 2; r++)
-                for (int col = 0; col < 2; col++) {
-                    const double dl = i == jj && r == col ? 1.0 : 0.0, ha = h * T->a[i][jj];
-                    double *a = A[n * (2 * i + r) + 2 * jj + col];
-                    for (size_t j = 0; j < m; j++) a[j] = dl - ha * c->DF[i][r][col][j];
-                }
-    for (size_t j = 0; j < m; j++) bad[j] = 0;
-    for (int k = 0; k < n; k++) {
-        for (size_t j = 0; j < m; j++) {
-            int pk = k;
-            double best = fabs(A[n * k + k][j]);
-            for (int i = k + 1; i < n; i++) {
-                const double v = fabs(A[n * i + k][j]);
-                const int take = v > best;
-                pk = take ? i : pk;
-                best = take ? v : best;
-            }
-            piv[k][j] = pk;
-        }
-        for (int i = k + 1; i < n; i++)
-            for (size_t j = 0; j < m; j++) {
-                const int sw = piv[k][j] == i;
-                for (int col = 0; col < n; col++) {
-                    const double t = A[n * k + col][j], u = A[n * i + col][j];
-                    A[n * k + col][j] = sw ? u : t;
-                    A[n * i + col][j] = sw ? t : u;
-                }
-            }
-        for (size_t j = 0; j < m; j++) {
-            const double p = A[n * k + k][j];
-            bad[j] |= !(p != 0.0) | !(fabs(p) <= DBL_MAX);
-        }
-        for (int i = k + 1; i < n; i++)
-            for (size_t j = 0; j < m; j++) {
-                const double l = A[n * i + k][j] / A[n * k + k][j];
-                A[n * i + k][j] = l;
-                for (int col = k + 1; col < n; col++) A[n * i + col][j] -= l * A[n * k + col][j];
-            }
+                for (int col = 0; col < 2; col++) F[i][r][col] = c->DF[i][r][col][j];
+        const int ok = gcp_gl_jinv_blocks(T, s, h, F, Ji);
+        for (int k = 0; k < n * n; k++) c->Jinv[k][j] = Ji[k];
+        c->state[j] = !ok && c->state[j] == GB_ITER ? GB_FAIL : c->state[j];
     }
-    for (int col = 0; col < n; col++)
-        for (size_t j = 0; j < m; j++) {
-            double x[4];
-            for (int r = 0; r < n; r++) x[r] = r == col ? 1.0 : 0.0;
-            for (int k = 0; k < n; k++) {
-                const double t = x[k];
-                for (int i = k + 1; i < n; i++) {
-                    const int sw = piv[k][j] == i;
-                    const double u = x[i];
-                    x[k] = sw ? u : x[k];
-                    x[i] = sw ? t : u;
-                }
-            }
-            for (int k = 0; k < n; k++)
-                for (int i = k + 1; i < n; i++) x[i] -= A[n * i + k][j] * x[k];
-            for (int k = n - 1; k >= 0; k--) {
-                for (int jj = k + 1; jj < n; jj++) x[k] -= A[n * k + jj][j] * x[jj];
-                x[k] /= A[n * k + k][j];
-            }
-            for (int r = 0; r < n; r++) c->Jinv[n * r + col][j] = x[r];
-        }
-    for (size_t j = 0; j < m; j++)
-        c->state[j] = bad[j] && c->state[j] == GB_ITER ? GB_FAIL : c->state[j];
 }
 
 /* s constant in each branch: the loops over the matrix entries unroll and
- * those over the lanes vectorise */
+ * the one over the lanes vectorises */
 static void gb_jinv(const struct gl_tableau *T, struct gb_chunk *c, size_t m, double h)
 {
     if (T->s == 2) gb_jinv_s(T, c, m, h, 2);
@@ -215,8 +205,9 @@ static void gb_update(const struct gl_tableau *T, struct gb_chunk *c, size_t m, 
         const size_t q0 = (size_t)i * m;
         for (size_t j = 0; j < m; j++) {
             const size_t q = q0 + j;
-            G[2 * i][j] = o->dH3[q] - c->K0[q] + c->DFe0[q] * c->e[i][j];
-            G[2 * i + 1][j] = -o->dH1[q] - c->K1[q] + c->DFe1[q] * c->e[i][j];
+            const double ep = c->z2[j] - o->Pphi[q];
+            G[2 * i][j] = o->dH3[q] - c->K0[q] + c->DFe0[q] * c->e[i][j] + c->DFp0[q] * ep;
+            G[2 * i + 1][j] = -o->dH1[q] - c->K1[q] + c->DFe1[q] * c->e[i][j] + c->DFp1[q] * ep;
         }
     }
     for (int r = 0; r < n; r++)
@@ -310,9 +301,10 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
             }
         }
         gb_lift(C, &k, np, c->mu, c->R, c->Z, c->Pe, &c->ev);
-        for (size_t j = 0; j < m; j++)
-            for (int i = 0; i < s; i++)
-                if (c->state[j] == GB_ITER && c->ev.st[(size_t)i * m + j]) c->state[j] = GB_FAIL;
+        for (int i = 0; i < s; i++)
+            for (size_t j = 0; j < m; j++)
+                c->state[j] = c->state[j] == GB_ITER && c->ev.st[(size_t)i * m + j] ? GB_FAIL
+                                                                                    : c->state[j];
         if (it == 0) {
             /* DF at the first iterate (gl_lift_df): the eta column from the
              * points moved by GL_FD sc0 along dp/deta */
@@ -326,22 +318,50 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
                 }
             }
             gb_lift(C, &k, np, c->mu, c->R2, c->Z2, c->Pe, &c->ev2);
-            for (size_t j = 0; j < m; j++) {
-                if (c->state[j] != GB_ITER) continue;
-                k.mu = b->mu[i0 + j];
-                if (gb_df(C, &k, &L[j], &c->ev, &c->ev2, j, m, c->Pe)) {
-                    c->state[j] = GB_FAIL;
-                    continue;
-                }
-                for (int i = 0; i < s; i++)
-                    for (int r = 0; r < 2; r++)
-                        for (int col = 0; col < 2; col++) c->DF[i][r][col][j] = L[j].DF[i][r][col];
+            /* d^2 p/deta^2 at the stages, by the same difference (the end
+             * point's guess, gcp_gl_lift_end) */
+            for (size_t q = 0; q < np; q++) {
+                const double de = c->ev2.eta[q] - c->ev.eta[q];
+                c->t2R[q] = (c->ev2.dp01[q] - c->ev.dp01[q]) / de;
+                c->t2Z[q] = (c->ev2.dp11[q] - c->ev.dp11[q]) / de;
             }
-            for (size_t j = 0; j < m; j++) /* the failed lanes' J: I (not used) */
-                for (int i = 0; i < s; i++)
-                    for (int r = 0; r < 2; r++)
-                        for (int col = 0; col < 2; col++)
-                            c->DF[i][r][col][j] = c->state[j] == GB_ITER ? c->DF[i][r][col][j] : 0.0;
+            /* the P_eta column from each sample (lift_ham), then DF (gl_lift_df's
+             * numbers, with dF/dP_phi: the Hessian of H is symmetric, so
+             * d(dH/dP_eta)/dP_phi and d(dH/deta)/dP_phi are the derivatives of
+             * the sampled dH/dP_phi along P_eta and eta) in loops over the lanes */
+            for (int i = 0; i < s; i++)
+                for (size_t j = 0; j < m; j++) {
+                    const size_t q = (size_t)i * m + j;
+                    struct gcp_canon_lift o = {0};
+                    o.Pphi = c->ev.Pphi[q], o.eta = c->ev.eta[q], o.Bm = c->ev.Bm[q];
+                    o.dBm[1] = c->ev.dBm1[q], o.dBm[2] = c->ev.dBm2[q];
+                    double H2, dH2[4] = {0.0, 0.0, 0.0, 0.0};
+                    c->hP[q] = c->Pe[q] + GL_FD * c->sc1[j];
+                    k.mu = b->mu[i0 + j];
+                    const int bad = c->state[j] != GB_ITER ||
+                                    C->chart.lift_ham(&C->chart, &k, &o, c->hP[q], &H2, dH2) ||
+                                    c->ev2.st[q];
+                    c->state[j] = bad ? GB_FAIL : c->state[j];
+                    c->h1[q] = dH2[1], c->h2[q] = dH2[2], c->h3[q] = dH2[3];
+                }
+            for (int i = 0; i < s; i++)
+                for (size_t j = 0; j < m; j++) {
+                    const size_t q = (size_t)i * m + j;
+                    const struct gb_eval *e = &c->ev, *e2 = &c->ev2;
+                    const double g0 = e->dH3[q], g1 = -e->dH1[q];
+                    const double dP = c->hP[q] - c->Pe[q], de = e2->eta[q] - e->eta[q];
+                    const double a = (c->h3[q] - g0) / dP, bb = (-c->h1[q] - g1) / dP;
+                    const double cc = (e2->dH3[q] - g0) / de, d = (-e2->dH1[q] - g1) / de;
+                    const double p0 = (c->h2[q] - e->dH2[q]) / dP;
+                    const double p1 = -(e2->dH2[q] - e->dH2[q]) / de;
+                    const int ok = c->state[j] == GB_ITER &&
+                                   fabs(a + bb + cc + d + p0 + p1) <= DBL_MAX;
+                    c->state[j] = ok || c->state[j] != GB_ITER ? c->state[j] : GB_FAIL;
+                    /* the failed lanes' J: I (not used) */
+                    c->DF[i][0][1][j] = ok ? a : 0.0, c->DF[i][1][1][j] = ok ? bb : 0.0;
+                    c->DF[i][0][0][j] = ok ? cc : 0.0, c->DF[i][1][0][j] = ok ? d : 0.0;
+                    c->DFp0[q] = p0, c->DFp1[q] = p1;
+                }
             gb_jinv(T, c, m, h);
             for (int i = 0; i < s; i++)
                 for (size_t j = 0; j < m; j++) {
@@ -350,83 +370,87 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
                 }
         }
         gb_update(T, c, m, h);
-        /* the mask: gl_step_lift's convergence and abandon tests */
+        /* the converged sample's dp/deta (gcp_gl_lift_end) */
+        for (int i = 0; i < s; i++)
+            for (size_t j = 0; j < m; j++) {
+                const size_t q = (size_t)i * m + j;
+                const int act = c->state[j] == GB_ITER;
+                c->t1R[q] = act ? c->ev.dp01[q] : c->t1R[q];
+                c->t1Z[q] = act ? c->ev.dp11[q] : c->t1Z[q];
+            }
+        /* the mask: gl_step_lift's convergence and abandon tests, by selects */
         left = 0;
         for (size_t j = 0; j < m; j++) {
-            if (c->state[j] != GB_ITER) continue;
-            const double nd = c->nd[j];
-            if (!isfinite(nd)) {
-                c->state[j] = GB_FAIL;
-                continue;
-            }
-            const double th = nd / c->nprev[j];
-            const int next_below = it > 0 && th < 1.0 && th / (1.0 - th) * nd <= GL_TOL;
-            const int stalled = it > 0 && nd <= GL_LIFT_FLOOR && th > 0.5;
-            if (it > 1 && th > 0.5 && !stalled) c->state[j] = GB_FAIL;
-            else if (nd <= GL_TOL || next_below || stalled) c->state[j] = GB_DONE;
-            else left++;
-            c->nprev[j] = nd;
+            const int act = c->state[j] == GB_ITER;
+            const double nd = c->nd[j], th = nd / c->nprev[j];
+            const int next_below = (it > 0) & (th < 1.0) & (th / (1.0 - th) * nd <= GL_TOL);
+            const int stalled = (it > 0) & (nd <= GL_LIFT_FLOOR) & (th > 0.5);
+            const int fail = (fabs(nd) > DBL_MAX) | !(nd == nd) | ((it > 1) & (th > 0.5) & (stalled == 0));
+            const int done = (fail == 0) & ((nd <= GL_TOL) | next_below | stalled);
+            c->state[j] = act ? (fail ? GB_FAIL : done ? GB_DONE : GB_ITER) : c->state[j];
+            c->nprev[j] = act ? nd : c->nprev[j];
+            left += (size_t)(act & (fail == 0) & (done == 0));
         }
     }
-    /* the converged lanes' ends (gl_finish and the rest), then their end
-     * points mapped back together where the chart can (from_canon_block) */
+    /* the converged lanes' end states and end point guesses
+     * (gcp_gl_lift_peek), packed at the front, their end points mapped back
+     * together where the chart can (from_canon_block, else from_canon), and
+     * the lanes mapped stepped (gcp_gl_lift_end): a lane whose end point
+     * cannot be mapped keeps the start of the step (gl_step) */
+    size_t nd = 0;
     for (size_t j = 0; j < m; j++) {
         if (c->state[j] != GB_DONE) continue;
-        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2];
+        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2], t1[GL_SMAX][2], t2[GL_SMAX][2];
+        double z[4], pe[2];
+        gb_lane_end(c, j, m, s, K, pd, p);
         for (int st = 0; st < s; st++) {
             const size_t q = (size_t)st * m + j;
-            K[st][0] = c->K0[q], K[st][1] = c->K1[q];
-            pd[st][0] = c->pd[q], pd[st][1] = 1.0;
-            p[st][0] = c->R[q], p[st][1] = c->Z[q];
+            t1[st][0] = c->t1R[q], t1[st][1] = c->t1Z[q];
+            t2[st][0] = c->t2R[q], t2[st][1] = c->t2Z[q];
         }
-        c->save[j] = L[j];
-        gcp_gl_lift_end(C, &L[j], h, K, pd, p);
-        c->mapped[j] = 0;
+        gcp_gl_lift_peek(C, &L[j], h, K, pd, p, t1, t2, z, &c->te[nd], pe);
+        for (int r = 0; r < 4; r++) c->ze[r][nd] = z[r];
+        c->a0[nd] = pe[0], c->a1[nd] = pe[1];
+        c->mapped[nd] = 0;
+        c->idx[nd++] = j;
     }
     if (C->chart.from_canon_block) {
-        size_t nd = 0;
-        for (size_t j = 0; j < m; j++)
-            if (c->state[j] == GB_DONE) c->idx[nd++] = j;
-        /* the done lanes packed at the front */
-        for (size_t a = 0; a < nd; a++) {
-            const size_t j = c->idx[a];
-            for (int r = 0; r < 4; r++) c->ze[r][a] = L[j].z[r];
-            c->a0[a] = L[j].aux[0][0], c->a1[a] = L[j].aux[0][1];
-        }
         const double *const zp[4] = {c->ze[0], c->ze[1], c->ze[2], c->ze[3]};
         double *const Xp[3] = {c->Xe[0], c->Xe[1], c->Xe[2]};
         C->chart.from_canon_block(&C->chart, &k, nd, zp, c->a0, c->a1, Xp, c->pe, c->mapped);
-        for (size_t a = nd; a-- > 0;) {
-            const size_t j = c->idx[a];
-            const int32_t ok = c->mapped[a];
-            c->mapped[a] = 0;
-            c->mapped[j] = ok;
-            if (!ok) continue;
-            L[j].aux[0][0] = c->a0[a], L[j].aux[0][1] = c->a1[a];
-            const size_t i = i0 + j;
-            b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
-            b->ppar[i] = c->pe[a];
-            b->fstatus[i] = 0;
+    }
+    for (size_t a = 0; a < nd; a++) {
+        const size_t j = c->idx[a], i = i0 + j;
+        if (!c->mapped[a]) {
+            double z[4] = {c->ze[0][a], c->ze[1][a], c->ze[2][a], c->ze[3][a]};
+            double aux[2] = {c->a0[a], c->a1[a]}, X[3], ppar;
+            const struct gcp_gc_consts kj = {b->q, b->m, b->mu[i]};
+            const int r = C->chart.from_canon(&C->chart, &kj, z, aux, X, &ppar);
+            if (r) {
+                c->state[j] = GB_UNMAPPED;
+                c->code[j] = r;
+                continue;
+            }
+            c->a0[a] = aux[0], c->a1[a] = aux[1];
+            c->Xe[0][a] = X[0], c->Xe[1][a] = X[1], c->Xe[2][a] = X[2], c->pe[a] = ppar;
         }
+        double K[GL_SMAX][2], pd[GL_SMAX][2], p[GL_SMAX][2];
+        gb_lane_end(c, j, m, s, K, pd, p);
+        const double pe[2] = {c->a0[a], c->a1[a]};
+        const double z[4] = {c->ze[0][a], c->ze[1][a], c->ze[2][a], c->ze[3][a]};
+        gcp_gl_lift_end(C, &L[j], K, z, c->te[a], p, pe);
+        b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
+        b->ppar[i] = c->pe[a];
+        b->fstatus[i] = 0;
     }
     int32_t failed = 0;
     for (size_t j = 0; j < m; j++) {
         const size_t i = i0 + j;
         int r = 0;
-        if (c->state[j] == GB_DONE) {
-            if (c->mapped[j]) continue;
-            double X[3], ppar;
-            const struct gcp_gc_consts kj = {b->q, b->m, b->mu[i]};
-            r = C->chart.from_canon(&C->chart, &kj, L[j].z, L[j].aux[0], X, &ppar);
-            if (r) {
-                /* nothing of the failed step is kept (gl_step) */
-                L[j] = c->save[j];
-                r = r == GCP_NONFINITE ? r : gcp_lane_fail(b, i, GCP_FAIL_CHART);
-            } else {
-                b->x[i] = X[0], b->y[i] = X[1], b->z[i] = X[2];
-                b->ppar[i] = ppar;
-                b->fstatus[i] = 0;
-            }
+        if (c->state[j] == GB_DONE) continue;
+        if (c->state[j] == GB_UNMAPPED) {
+            /* nothing of the failed step is kept (gl_step) */
+            r = c->code[j] == GCP_NONFINITE ? GCP_NONFINITE : gcp_lane_fail(b, i, GCP_FAIL_CHART);
         } else {
             /* the lifted solve failed (or did not converge): the per-lane
              * inverting solver from the start of the step */

@@ -3,6 +3,8 @@
 #ifndef GCPUSH_GC_GAUSS_PRIV_H
 #define GCPUSH_GC_GAUSS_PRIV_H
 
+#include <float.h>
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -22,9 +24,11 @@ struct gl_ctx {
     struct gcp_canon_chart chart;
     double sundman_a; /* [1] exponent of w = (B_ref/|B|)^a; 0: plain time steps */
     /* Lagrange weights of the lifted solver's point predictor (gc_gauss.c
-     * gl_points_extrap) by [with this step's points][have_P][node], filled
-     * once by gcp_gl_ctx_weights (have_wext = 0: computed at each use) */
-    double wext[2][3][GL_SMAX + 1][3 * GL_SMAX + 1];
+     * gl_points_extrap) by [have_P][stage][node], filled once by
+     * gcp_gl_ctx_weights (have_wext = 0: computed at each use) */
+    double wext[3][GL_SMAX][2 * GL_SMAX + 1];
+    /* and of the slope predictor (gl_predict) by [history - 2][stage][node] */
+    double wK[2][GL_SMAX][3 * GL_SMAX];
     int have_wext;
 };
 /* Fills C->wext (C->tab set). */
@@ -37,6 +41,7 @@ struct gl_lane {
                                  * [1 + i] the stage points themselves) */
     double K[GL_SMAX][2];       /* last step's stage slopes (d eta, d P_eta) */
     double K2[GL_SMAX][2];      /* the step's before */
+    double K3[GL_SMAX][2];      /* and the one before that */
     double J[16];               /* LU of the stage Jacobian (2s x 2s) */
     int piv[4];
     int have_K, have_J;
@@ -44,6 +49,8 @@ struct gl_lane {
     double sc[2];               /* [eta unit, P_eta unit] scales of eta and P_eta */
     double sc_pphi;             /* [kg m^2/s] scale of P_phi (chart residual of a stage point) */
     double DF[GL_SMAX][2][2];   /* the stage Jacobians of F behind J (lifted solver) */
+    double DFp[GL_SMAX][2];     /* dF/dP_phi at the stages (lifted solver: the linearisation
+                                 * of F at a point off the stage's P_phi) */
     double Jinv[16];            /* J^-1 (lifted solver: a product, not a solve, per iteration) */
     double pst2[GL_SMAX][2];    /* the stage points of the step before the last (lifted solver) */
     int have_P;                 /* steps whose stage points are kept: 0, 1 (aux[1 + i]), 2 (+ pst2) */
@@ -53,6 +60,74 @@ struct gl_lane {
     double Bref;                /* [T] |B| at the start (Sundman: w = 1 there) */
 };
 
+/* J^-1 of the lifted solver's J = delta_ij I - h a_ij DF_i (n = 2s; row
+ * 2i + r, column 2j + c; Jinv row-major n x n) in closed form by 2 x 2
+ * blocks, straight-line code (no pivoting: the per-lane and block solvers'
+ * lanes vectorise).  s = 1: J = A = I - h a_11 DF_1, J^-1 = adj(A)/det A.
+ * s = 2: J = [[A, B], [C, D]], A = I - h a_11 DF_1, B = -h a_12 DF_1,
+ * C = -h a_21 DF_2, D = I - h a_22 DF_2; with X = A^-1 B, Y = C A^-1 and the
+ * Schur complement S = D - C X,
+ *   J^-1 = [[A^-1 + X S^-1 Y, -X S^-1], [-S^-1 Y, S^-1]].
+ * A's eigenvalues are 1 - h a_11 lambda for DF's lambda, ~1 +- i h a_11
+ * omega for the bounce (lambda = +-i omega): never singular there.
+ * Returns 0 where det A or det S is 0 or not finite (the lane's lifted
+ * step fails, as a zero pivot did). */
+static inline __attribute__((always_inline)) int
+gcp_gl_jinv_blocks(const struct gl_tableau *T, int s, double h, const double F[GL_SMAX][2][2],
+                   double Jinv[16])
+{
+    double A[2][2], Ai[2][2];
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) A[r][c] = (r == c ? 1.0 : 0.0) - h * T->a[0][0] * F[0][r][c];
+    const double dA = A[0][0] * A[1][1] - A[0][1] * A[1][0];
+    const double iA = 1.0 / dA;
+    Ai[0][0] = A[1][1] * iA, Ai[0][1] = -A[0][1] * iA;
+    Ai[1][0] = -A[1][0] * iA, Ai[1][1] = A[0][0] * iA;
+    int ok = (fabs(dA) > 0.0) & (fabs(dA) <= DBL_MAX);
+    if (s == 1) {
+        for (int r = 0; r < 2; r++)
+            for (int c = 0; c < 2; c++) Jinv[2 * r + c] = Ai[r][c];
+        return ok;
+    }
+    double B[2][2], Cm[2][2], D[2][2], X[2][2], Y[2][2], S[2][2], Si[2][2], XS[2][2], SY[2][2];
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) {
+            B[r][c] = -h * T->a[0][1] * F[0][r][c];
+            Cm[r][c] = -h * T->a[1][0] * F[1][r][c];
+            D[r][c] = (r == c ? 1.0 : 0.0) - h * T->a[1][1] * F[1][r][c];
+        }
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) {
+            X[r][c] = Ai[r][0] * B[0][c] + Ai[r][1] * B[1][c];
+            Y[r][c] = Cm[r][0] * Ai[0][c] + Cm[r][1] * Ai[1][c];
+        }
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) S[r][c] = D[r][c] - (Cm[r][0] * X[0][c] + Cm[r][1] * X[1][c]);
+    const double dS = S[0][0] * S[1][1] - S[0][1] * S[1][0];
+    const double iS = 1.0 / dS;
+    Si[0][0] = S[1][1] * iS, Si[0][1] = -S[0][1] * iS;
+    Si[1][0] = -S[1][0] * iS, Si[1][1] = S[0][0] * iS;
+    ok &= (fabs(dS) > 0.0) & (fabs(dS) <= DBL_MAX);
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) {
+            XS[r][c] = X[r][0] * Si[0][c] + X[r][1] * Si[1][c];
+            SY[r][c] = Si[r][0] * Y[0][c] + Si[r][1] * Y[1][c];
+        }
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) {
+            Jinv[4 * r + c] = Ai[r][c] + (XS[r][0] * Y[0][c] + XS[r][1] * Y[1][c]);
+            Jinv[4 * r + 2 + c] = -XS[r][c];
+            Jinv[4 * (2 + r) + c] = -SY[r][c];
+            Jinv[4 * (2 + r) + 2 + c] = Si[r][c];
+        }
+    return ok;
+}
+
+/* The end of a step from its slopes K and quadrature rates pd (gc_gauss.c):
+ * z1 = z0 + h sum b_i K_i, and the quadratures phi and t. */
+void gcp_gl_end_state(const struct gl_tableau *T, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2], double z[4],
+                      double *t);
 /* Lane set-up from block lane i (canonical state, Newton scales); t, pt,
  * Bref are the caller's.  0 or a status (gcp_gc_lane_ops.init). */
 int gcp_gl_init(const void *ctx, const struct gcp_block *b, size_t i, double t, void *lane);
@@ -66,15 +141,22 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
 int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, double h,
                      struct gl_lane *L, int lift);
 /* Pieces of the lifted solver shared with gc_gauss_block.c: its start
- * (predicted slopes K, stage points p; 0 or -1), J and J^-1 from L->DF
- * (0 or -1), and its end (a converged step's slopes K, quadrature rates pd
- * and stage points p into L). */
+ * (gc_gauss.c: predicted slopes K, stage points p; 0 or -1), J^-1 from
+ * L->DF (0 or -1), and its end (these two in gc_gauss_block.c):
+ * gcp_gl_lift_peek, without changing L, the end state z, t and the end
+ * point's guess pe from a converged step's slopes K, quadrature rates pd,
+ * stage points p with their dp/deta t1 and d^2p/deta^2 t2;
+ * gcp_gl_lift_end, the step into L with the end point pe. */
 int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                       const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2]);
 int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h);
-void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
-                     const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
-                     const double p[GL_SMAX][2]);
+void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
+                      const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
+                      const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                      const double t2[GL_SMAX][2], double z[4], double *t, double pe[2]);
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[GL_SMAX][2],
+                     const double z[4], double t, const double p[GL_SMAX][2],
+                     const double pe[2]);
 /* The lifted solve over the n live lanes of b at once (gc_gauss_block.c;
  * gcp_gc_lane_ops.step_block), the per-lane path for lanes it fails. */
 int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,

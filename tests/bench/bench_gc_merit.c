@@ -26,8 +26,8 @@
  *    symplectic method's trend is its fit noise (its error is bounded:
  *    tests/unit/test_gc_symplectic.c measures it over 1e6 steps), a
  *    non-symplectic method's is its secular drift.  The coarsest setting
- *    with err(T) <= 1e-4 for every lane wins; its CPU time is scaled from
- *    the NB-bounce run to T (extrapolated, not run).
+ *    with err(T) <= 1e-4 for every lane wins; its CPU time (best of REPS
+ *    runs) is scaled from the NB-bounce run to T (extrapolated, not run).
  */
 #include <math.h>
 #include <stdint.h>
@@ -232,6 +232,12 @@ static void scan(const struct ens *E, const struct gcp_pusher_type *p, int adapt
         double err, cpu;
         if (push_energy(E, &s, T, &err, &cpu)) continue;
         if (err <= TARGET) {
+            /* the winning setting's CPU time: best of REPS, as in part 1 (a
+             * single run's varies with the machine's load) */
+            for (int r = 1; r < REPS; r++) {
+                double e2, c2;
+                if (!push_energy(E, &s, T, &e2, &c2)) cpu = fmin(cpu, c2);
+            }
             long_s = cpu / NL * T / (NB_ENERGY * E->tb_min);
             long_set = adaptive ? s.tol : s.per;
             long_err = err;
