@@ -293,7 +293,7 @@ static double memory_per_rank(const struct gcp_scene *sc, int nranks)
     const int64_t row = gcp_results_row_bytes(sc->trajectory_samples,
                                               sc->pusher->kind == GCP_GUIDING_CENTRE, &widest);
     const int64_t chunks = gcp_scene_chunk_count(sc);
-    const double rows = (double)((chunks + nranks - 1) / nranks) * GCP_CHUNK;
+    const double rows = (double)((chunks + nranks - 1) / nranks) * (double)gcp_scene_chunk_size(sc);
     double cap = 256;
     while (cap < rows) cap *= 2;
     const double sort = rows * (double)(widest + 8), write = 2.0 * (double)sc->total / nranks * (double)widest;

@@ -190,9 +190,20 @@ struct gcp_schedule {
     const volatile int *stop;
 };
 
-/* Particles per chunk: one block of the stepper, one population. */
+/* Particles per chunk at most: one block of the stepper, one population. */
 #define GCP_CHUNK 64
+/* ... and at least (unless a population is smaller). */
+#define GCP_CHUNK_MIN 32
 
+/* Particles per chunk of the scene: GCP_CHUNK for large ensembles, down to
+ * GCP_CHUNK_MIN so that a small one still makes several chunks (about 8) to share
+ * among the ranks (the flagship's 90 particles were 3 chunks, one a
+ * population, which 2 ranks cannot share evenly: 1.24x; in chunks of 32,
+ * 5 chunks: 1.45-1.5x).  Smaller chunks cost more per particle (8: +21%,
+ * 16: +10%, 32: +3% on one rank, gc-gl4 block solve and per-chunk work).
+ * A function of the scene alone, never of the rank count: a checkpoint's
+ * chunks are the same chunks on restart with any number of ranks. */
+int64_t gcp_scene_chunk_size(const struct gcp_scene *s);
 int64_t gcp_scene_chunk_count(const struct gcp_scene *s);
 /* Ids [first, first + count) of chunk c. */
 void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64_t *count);

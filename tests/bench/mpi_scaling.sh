@@ -57,3 +57,11 @@ END {
     printf "  CPU model of the ranks: T1 %.2f s, T2 %.2f s (%.3f s outside the push + %.3f s push): speed-up %.2fx\n",
            T1, o + p, o, p, T1 / (o + p)
 }'
+# The flagship itself (runs/dipole.run as shipped: 90 particles, 4000
+# trajectory samples each): a short run where start-up, the trajectory
+# write and the chunking (gcp_scene_chunk_size: 5 chunks of <= 32) weigh.
+sed "s|^file .*|file = $TMP/f.h5|" runs/dipole.run > "$TMP/f.run"
+f() { s=$(date +%s%N); mpirun --oversubscribe --bind-to none -np "$1" "$GCPUSH" --quiet --force "$TMP/f.run" 2>/dev/null; e=$(date +%s%N); echo $(( (e - s) / 1000000 )); }
+f 1 > /dev/null
+f1=$(f 1); f2=$(f 2)
+awk -v a="$f1" -v b="$f2" 'BEGIN { printf "  runs/dipole.run as shipped: 1 rank %.2f s, 2 ranks %.2f s: speed-up %.2fx\n", a/1000, b/1000, a/b }'

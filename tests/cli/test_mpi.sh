@@ -70,7 +70,7 @@ ranks=$(h5dump -a /ranks r3.h5 | grep -o '(0): [0-9]*' | cut -d' ' -f2)
 [ "$ranks" = 3 ] || die "ranks attribute is '$ranks', not 3"
 
 # SIGKILL halfway, then restart on 2 ranks: the same file, no particle twice
-# many short chunks (GCP_CHUNK = 64 particles), so checkpoints come often
+# many short chunks (64 particles at 960), so checkpoints come often
 # (events through checkpoints: the loss table only, which costs nothing per
 # step; the event rows of every kind travel the same way)
 sed "s/OUT/long.h5/; s/^duration = 0.2 s/duration = 1 s/; s/^count    = 200/count    = 960/; s/^\[output\]/[output]\ncheckpoint = 0.1 s/; s/^invariants = .*/invariants = none/; s/^events     = .*/events     = loss/" ens.run > long.run
