@@ -720,7 +720,6 @@ int main(int argc, char **argv)
     }
     printf("\n");
     part_gc();
-    printf("CUDA: kernels.h compiles under nvcc (tests/cli/test_kernels_compile.sh); no GPU here,\n"
-           "so no device particle-steps/s.\n");
+    printf("CUDA: kernels.h on a GPU is tests/bench/cuda.sh's part of make bench.\n");
     return 0;
 }
