@@ -70,14 +70,16 @@ restart_fails "row count 2^62" "ck.h5.ckpt.0"
 ckpt ck.h5.ckpt.0 200 0 64
 restart_fails "more rows than the run has particles" "ck.h5.ckpt.0"
 
-# 9. a chunk with missing particles: the restart fails saying which
+# 9. a chunk with missing particles: the restart fails saying which (128
+# particles make chunks of 32, gcp_scene_chunk_size: ids 0..31 whole, 32..62
+# of 32..63)
 ckpt ck.h5.ckpt.0 63 0 63
-restart_fails "a chunk missing a particle" "particles 0 \.\. 63"
+restart_fails "a chunk missing a particle" "particles 32 \.\. 63"
 # 4. clean-up deletes exactly the checkpoints: not OUT.ckpt.0.bak, and an
 # output name with glob characters matches itself only
 ckpt ck.h5.ckpt.0 64 0 64
 echo keep > ck.h5.ckpt.0.bak
-"$GCPUSH" --quiet --restart ck.h5 || die "restart from one whole chunk failed"
+"$GCPUSH" --quiet --restart ck.h5 || die "restart from two whole chunks failed"
 [ -f ck.h5.ckpt.0 ] && die "the checkpoint was left after a finished run"
 [ -f ck.h5.ckpt.0.bak ] || die "clean-up deleted ck.h5.ckpt.0.bak"
 sed 's/^file       = ck.h5/file       = c*.h5\ncheckpoint = 1 ms/' ck.run > glob.run
