@@ -28,6 +28,8 @@
 
 #include <math.h>
 
+#include "kernels.h" /* GCP_HD: __host__ __device__ under CUDA (tests/bench/cuda) */
+
 /* The forms (0: none, the model is not one closed formula). */
 enum gcp_point_B_form {
     GCP_POINT_B_NONE = 0,
@@ -54,7 +56,7 @@ struct gcp_point_B {
  *   B = c (-3 z x_vec + r^2 zhat) / r^5,
  *   Bx = -3 c z x / r^5,  By = -3 c z y / r^5,  Bz = c (r^2 - 3 z^2) / r^5,
  * in the operations and order of fields/dipole.c's dipole_B (bit-identical). */
-static inline void gcp_point_B_dipole(double c, double x, double y, double z, double *bx,
+static inline GCP_HD void gcp_point_B_dipole(double c, double x, double y, double z, double *bx,
                                       double *by, double *bz)
 {
     double r2 = x * x + y * y + z * z;
@@ -69,7 +71,7 @@ static inline void gcp_point_B_dipole(double c, double x, double y, double z, do
 /* Any form at one point: B [T] and E [V/m] (zeros where the form has
  * none).  A switch per call: for checks and scalar use; the fused loops
  * instantiate one form each instead. */
-static inline void gcp_point_B_eval(const struct gcp_point_B *f, double x, double y, double z,
+static inline GCP_HD void gcp_point_B_eval(const struct gcp_point_B *f, double x, double y, double z,
                                     double B[3], double E[3])
 {
     E[0] = E[1] = E[2] = 0.0;

@@ -8,9 +8,9 @@
  * one thread per particle, the state in registers for a whole launch of
  * many steps, the kick gcp_push_boris_B and the right-hand side gcp_gc_rhs
  * from kernels.h unchanged (GCP_HD makes them __host__ __device__).  The
- * dipole field is the bench's own point evaluation, written operation for
- * operation as fields/dipole.c's (B, and the grad-B tensor for the guiding
- * centre), so that host and device compute the same numbers.
+ * dipole's B is the kernel layer's gcp_point_B_dipole (field_kernels.h,
+ * bit-identical to fields/dipole.c); its grad-B tensor for the guiding
+ * centre is written here operation for operation as fields/dipole.c's.
  *
  * Scenes: those of ../shared/limit kernels (b) and (c) and of
  * tests/bench/bench_push.c `limit`: 1 MeV protons on the equator at
@@ -35,6 +35,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "gcpush/field_kernels.h"
 #include "gcpush/kernels.h"
 
 #define RE 6.3712e6          /* R_E [m], as gcpush/units.h GCP_EARTH_RADIUS */
@@ -59,15 +60,11 @@ static __forceinline__ GCP_HD double dip_r2(double x, double y, double z)
     return r2 > 1.0 ? r2 : 1.0;
 }
 
-/* B = c (-3 z x_vec + r^2 zhat) / r^5 */
+/* B: the kernel layer's closed-form dipole (gcpush/field_kernels.h), the
+ * one gcpush's fused CPU loop uses. */
 static __forceinline__ GCP_HD void dip_B(double c, double x, double y, double z, double B[3])
 {
-    const double r2 = dip_r2(x, y, z);
-    const double c5 = c / (r2 * r2 * sqrt(r2));
-    const double m3z = -3.0 * c5 * z;
-    B[0] = m3z * x;
-    B[1] = m3z * y;
-    B[2] = c5 * (r2 - 3.0 * z * z);
+    gcp_point_B_dipole(c, x, y, z, &B[0], &B[1], &B[2]);
 }
 
 /* dB_i/dx_j = -3 c/r^5 [z d_ij + x_i d_jz + x_j d_iz - 5 z x_i x_j / r^2] */
