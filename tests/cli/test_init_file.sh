@@ -228,10 +228,19 @@ boot=$(( ($(date +%s%N) - start) / 1000000 ))
 start=$(date +%s%N)
 "$GCPUSH" --quiet --force ref.run || die "reference run failed"
 took=$(( ($(date +%s%N) - start) / 1000000 ))
-"$GCPUSH" --quiet --force sub/R.run 2> term.txt & pid=$!
-sleep "$(awk -v t="$took" -v b="$boot" 'BEGIN { print (b + (t - b) * 0.5) / 1000 }')"
-kill -TERM $pid; wait $pid; rc=$?
-[ $rc = 3 ] || die "SIGTERM halfway through the run (${took} ms, ${boot} ms to start): exit status $rc, not 3"
+# A run that ends before the signal (exit 0: on a loaded machine, or under
+# the sanitizers, start-up and output can take most of the time) says
+# nothing about SIGTERM: it is tried again with the signal earlier.  Any
+# status but 0 and 3 fails at once.
+rc=0
+for frac in 0.5 0.3 0.15; do
+    "$GCPUSH" --quiet --force sub/R.run 2> term.txt & pid=$!
+    sleep "$(awk -v t="$took" -v b="$boot" -v f="$frac" 'BEGIN { print (b + (t - b) * f) / 1000 }')"
+    kill -TERM $pid; wait $pid; rc=$?
+    [ $rc = 0 ] || break
+    rm -f R.h5 R.h5.ckpt.*
+done
+[ $rc = 3 ] || die "SIGTERM during the run (${took} ms, ${boot} ms to start, at $frac of the push): exit status $rc, not 3"
 # the file changed since the checkpoint: refused, naming the file
 cp D.h5 D.keep; "$PY" -c "
 import h5py
