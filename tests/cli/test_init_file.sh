@@ -221,26 +221,31 @@ with h5py.File('D.h5') as f, h5py.File('sub/D.h5', 'w') as g:
 "
 ens "file = D.h5" "30 s" R.h5 | sed 's/^\[output\]/[output]\ncheckpoint = 0.05 s/' > sub/R.run
 ens "file = D.h5" "30 s" ref.h5 > ref.run
-# the signal halfway through the push (start-up, MPI_Init mostly, timed apart)
+# how long start-up and the whole run take (for the messages and the wait below)
 start=$(date +%s%N)
 "$GCPUSH" --check ref.run > /dev/null || die "reference run file refused"
 boot=$(( ($(date +%s%N) - start) / 1000000 ))
 start=$(date +%s%N)
 "$GCPUSH" --quiet --force ref.run || die "reference run failed"
 took=$(( ($(date +%s%N) - start) / 1000000 ))
-# A run that ends before the signal (exit 0: on a loaded machine, or under
-# the sanitizers, start-up and output can take most of the time) says
-# nothing about SIGTERM: it is tried again with the signal earlier.  Any
-# status but 0 and 3 fails at once.
+# The signal goes once the first periodic checkpoint (every 0.05 s of the
+# push) is on disk, i.e. while the push runs, whatever start-up and output
+# cost (under the sanitizers they are most of the run).  A run that still
+# ends first (exit 0: the signal came after the push) says nothing about
+# SIGTERM and is tried again; any status but 0 and 3 fails at once.
 rc=0
-for frac in 0.5 0.3 0.15; do
+for try in 1 2 3; do
     "$GCPUSH" --quiet --force sub/R.run 2> term.txt & pid=$!
-    sleep "$(awk -v t="$took" -v b="$boot" -v f="$frac" 'BEGIN { print (b + (t - b) * f) / 1000 }')"
-    kill -TERM $pid; wait $pid; rc=$?
+    waited=0
+    while ! ls R.h5.ckpt.* > /dev/null 2>&1 && kill -0 $pid 2> /dev/null &&
+          [ $waited -lt $(( took / 10 + 100 )) ]; do
+        sleep 0.01; waited=$((waited + 1))
+    done
+    kill -TERM $pid 2> /dev/null; wait $pid; rc=$?
     [ $rc = 0 ] || break
     rm -f R.h5 R.h5.ckpt.*
 done
-[ $rc = 3 ] || die "SIGTERM during the run (${took} ms, ${boot} ms to start, at $frac of the push): exit status $rc, not 3"
+[ $rc = 3 ] || die "SIGTERM during the push (${took} ms run, ${boot} ms to start, try $try): exit status $rc, not 3"
 # the file changed since the checkpoint: refused, naming the file
 cp D.h5 D.keep; "$PY" -c "
 import h5py
