@@ -344,6 +344,17 @@ static void cf_lift_math(const struct gcp_gc_consts *k, size_t nb, const double 
 #undef O_
 }
 
+/* The block evaluation's outputs: B and grad B into a chunk's arrays, no E. */
+static struct gcp_field_soa cf_soa_BG(double B[3][CF_BLK], double G[3][3][CF_BLK])
+{
+    const struct gcp_field_soa fo = {{B[0], B[1], B[2]},
+                                     {{G[0][0], G[0][1], G[0][2]},
+                                      {G[1][0], G[1][1], G[1][2]},
+                                      {G[2][0], G[2][1], G[2][2]}},
+                                     {NULL, NULL, NULL}};
+    return fo;
+}
+
 /* cf_lift_eval at n points (canon_priv.h lift_eval_block): the field's
  * block evaluation (gcp_field_eval_soa), then cf_lift_eval's and
  * cf_lift_h's arithmetic, in the same order, in one branch-free loop that
@@ -356,11 +367,7 @@ static void cf_lift_eval_block(const struct gcp_canon_chart *c, const struct gcp
 {
     double Y[CF_BLK], B[3][CF_BLK], G[3][3][CF_BLK], psi[CF_BLK], chi[CF_BLK];
     double out[CF_NOUT][CF_BLK];
-    const struct gcp_field_soa fo = {{B[0], B[1], B[2]},
-                                     {{G[0][0], G[0][1], G[0][2]},
-                                      {G[1][0], G[1][1], G[1][2]},
-                                      {G[2][0], G[2][1], G[2][2]}},
-                                     {NULL, NULL, NULL}};
+    const struct gcp_field_soa fo = cf_soa_BG(B, G);
     for (size_t j0 = 0; j0 < n; j0 += CF_BLK) {
         const size_t nb = n - j0 < CF_BLK ? n - j0 : CF_BLK;
         const double *r = R + j0, *zz = Z + j0, *pe = Peta + j0, *mu_ = mu + j0;
@@ -433,11 +440,7 @@ static void cf_from_canon_block(const struct gcp_canon_chart *c, const struct gc
     double Y[CF_BLK], B[3][CF_BLK], G[3][3][CF_BLK], psi[CF_BLK], chi[CF_BLK], Bm[CF_BLK];
     double Rw[CF_BLK], Zw[CF_BLK], psit[CF_BLK], chit[CF_BLK];
     int32_t st[CF_BLK], act[CF_BLK];
-    const struct gcp_field_soa fo = {{B[0], B[1], B[2]},
-                                     {{G[0][0], G[0][1], G[0][2]},
-                                      {G[1][0], G[1][1], G[1][2]},
-                                      {G[2][0], G[2][1], G[2][2]}},
-                                     {NULL, NULL, NULL}};
+    const struct gcp_field_soa fo = cf_soa_BG(B, G);
     for (size_t j0 = 0; j0 < n; j0 += CF_BLK) {
         const size_t nb = n - j0 < CF_BLK ? n - j0 : CF_BLK;
         int32_t *dn_ = done + j0;

@@ -330,12 +330,7 @@ static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
 {
     double z[4], t;
     gcp_gl_end_state(T, L, h, K, pd, z, &t);
-    memcpy(L->z, z, sizeof L->z);
-    L->t = t;
-    memcpy(L->K3, L->K2, sizeof L->K);
-    memcpy(L->K2, L->K, sizeof L->K);
-    memcpy(L->K, K, sizeof L->K);
-    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
+    gl_lane_accept(L, z, t, K);
 }
 
 /* One step through the chart's inversion (charts without lift_eval). */

@@ -97,12 +97,7 @@ void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[G
                      const double pe[2])
 {
     const struct gl_tableau *T = C->tab;
-    memcpy(L->z, z, sizeof L->z);
-    L->t = t;
-    memcpy(L->K3, L->K2, sizeof L->K);
-    memcpy(L->K2, L->K, sizeof L->K);
-    memcpy(L->K, K, sizeof L->K);
-    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
+    gl_lane_accept(L, z, t, K);
     memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
     for (int r = 0; r < 2; r++) {
         L->aux[0][r] = pe[r];

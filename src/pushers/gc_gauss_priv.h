@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "gcpush/pusher.h"
 #include "canon_priv.h"
@@ -59,6 +60,19 @@ struct gl_lane {
     double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */
     double Bref;                /* [T] |B| at the start (Sundman: w = 1 there) */
 };
+
+/* A lane's accepted step: the end state and time, and the slope history the
+ * predictor extrapolates from (K, K2, K3) shifted by one step. */
+static inline void gl_lane_accept(struct gl_lane *L, const double z[4], double t,
+                                  const double K[GL_SMAX][2])
+{
+    memcpy(L->z, z, sizeof L->z);
+    L->t = t;
+    memcpy(L->K3, L->K2, sizeof L->K);
+    memcpy(L->K2, L->K, sizeof L->K);
+    memcpy(L->K, K, sizeof L->K);
+    L->have_K = L->have_K < 3 ? L->have_K + 1 : 3;
+}
 
 /* J^-1 of the lifted solver's J = delta_ij I - h a_ij DF_i (n = 2s; row
  * 2i + r, column 2j + c; Jinv row-major n x n) in closed form by 2 x 2

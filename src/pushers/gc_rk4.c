@@ -211,7 +211,7 @@ static void adiabaticity_chunk(struct rk4_chunk *c, size_t m, const double *mu, 
     }
 }
 
-/* Stage 1 over all n live lanes: k1 into k1[4][N], the verdict into
+/* Stage 1 over all n live lanes: k1 into k1[4][N] (k1 NULL: not kept), the verdict into
  * b->fstatus.  Returns non-zero when any lane failed. */
 static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double *k1,
                       const struct gcp_field *f, double t, unsigned need, double amax,
@@ -227,7 +227,8 @@ static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double
         memcpy(c->P, b->ppar + i0, m * sizeof(double));
         stage_eval(c, m, f, t, need, b->mu + i0, kc, RHS_STORE, NULL);
         if (amax > 0.0) adiabaticity_chunk(c, m, b->mu + i0, b->q, b->m, amax);
-        for (int d = 0; d < 4; d++) memcpy(k1 + d * N + i0, c->k[d], m * sizeof(double));
+        if (k1)
+            for (int d = 0; d < 4; d++) memcpy(k1 + d * N + i0, c->k[d], m * sizeof(double));
         for (size_t i = 0; i < m; i++) {
             b->fstatus[i0 + i] = c->code[i];
             any |= c->code[i];
@@ -324,20 +325,7 @@ int32_t gcp_gc_check_block(const struct gcp_evolve *ev, void *ctx, struct gcp_bl
                                   1.0 / b->m};
     struct rk4_chunk *c = aligned_alloc(64, (sizeof *c + 63) / 64 * 64);
     if (!c) return gcp_evolve_gc_check(ev, ctx, b, n, t, first);
-    int32_t any = 0;
-    for (size_t i0 = 0; i0 < n; i0 += CHUNK) {
-        const size_t m = n - i0 < CHUNK ? n - i0 : CHUNK;
-        memcpy(c->X, b->x + i0, m * sizeof(double));
-        memcpy(c->Y, b->y + i0, m * sizeof(double));
-        memcpy(c->Z, b->z + i0, m * sizeof(double));
-        memcpy(c->P, b->ppar + i0, m * sizeof(double));
-        stage_eval(c, m, ev->f, t, ev->need, b->mu + i0, &kc, RHS_STORE, NULL);
-        if (amax > 0.0) adiabaticity_chunk(c, m, b->mu + i0, b->q, b->m, amax);
-        for (size_t i = 0; i < m; i++) {
-            b->fstatus[i0 + i] = c->code[i];
-            any |= c->code[i];
-        }
-    }
+    const int32_t any = stage1(b, n, c, NULL, ev->f, t, ev->need, amax, &kc);
     free(c);
     return any;
 }

@@ -53,11 +53,11 @@
         }                                                                                   \
     } while (0)
 
-/* ---- the dipole, as fields/dipole.c (c = B0 R_E^3, r^2 floored at 1 m^2) --- */
+/* ---- the dipole, as fields/dipole.c (c = B0 R_E^3, r^2 floored as field_kernels.h) --- */
 static __forceinline__ GCP_HD double dip_r2(double x, double y, double z)
 {
     const double r2 = x * x + y * y + z * z;
-    return r2 > 1.0 ? r2 : 1.0;
+    return r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
 }
 
 /* B: the kernel layer's closed-form dipole (gcpush/field_kernels.h), the
