@@ -37,3 +37,10 @@ BEGIN { while ((getline l < prevf) > 0) { split(l, f, " "); if (f[1] !~ /^#/) pr
     key = $2 " " $3
     if (key in prev) pr = sprintf("%10.3f %9.2f", prev[key], $4 / prev[key]); else pr = sprintf("%10s %9s", "-", "-")
     printf "  %-16s %6d %12.3f %6s %12.3f %8.2f %8s %s\n", $2, $3, $4, n, k, $4 / k, g, pr }'
+# The IEEE floor of the Boris step (bench_floor.c): its 2 square roots and
+# 4 divisions alone, against kernel (b) and the goal, in the same run.
+fl=$("$BIN/bench_floor" | awk '/^floor-row/ {print $4}')
+bd=$(echo "$ours" | awk '/^limit-row boris-dipole 8192/ {print $4}')
+echo "$fl $kb $bd" | awk '{ printf "  boris-dipole: its 2 sqrt + 4 divisions alone (IEEE, bench_floor) take %.3f ns = %.2fx (b);" \
+    " the goal 1.25x (b) = %.3f ns leaves %.3f ns for the ~90 other operations; gcpush %.3f ns = %.2fx that floor\n", \
+    $1, $1 / $2, 1.25 * $2, 1.25 * $2 - $1, $3, $3 / $1 }'
