@@ -31,8 +31,9 @@
  *    oscillating error of amplitude A the fitted slope of a run of n bounces
  *    is fit noise of order A / (n Tb), and (T - t_run) / t_run ~ 6e3 at 60
  *    bounces, so that rule measured its own noise: it asked of a symplectic
- *    method an amplitude ~1e-4 / 6e3, i.e. ~10x finer steps than its error
- *    needs (gc-gl2 at 813 steps per bounce).  A run this short cannot tell
+ *    method an amplitude of order 1e-4 / 6e3, far finer steps than its
+ *    error needs (gc-gl2: 813 steps per bounce, where the rule below finds
+ *    29; gc-gl4: 45 against 15).  A run this short cannot tell
  *    a bounded error from a slow drift without a model; what is known about
  *    each class of method supplies it, and each run is checked against it:
  *
@@ -94,7 +95,7 @@
 #define NB_LONG 240  /* Tb_min of the run that confirms the scan's verdict */
 #define SPB 8        /* energy samples per Tb_min */
 #define GROWTH_MAX 1.05 /* bounded: max |dH/H| over a run <= 1.05 x that over its first quarter */
-#define SCAN_CPU_MAX 4.0 /* [s] a scan run costing more that fails ends the scan (NaN) */
+#define SCAN_CPU_MAX 2.0 /* [s] a scan run costing more that fails ends the scan (NaN) */
 #define RESOLVED_MIN 2.0 /* a drift resolved: |s| t_run >= 2 x (3 r), see judge */
 #define TARGET 1e-4
 
