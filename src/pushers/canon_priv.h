@@ -103,6 +103,14 @@ struct gcp_canon_chart {
                             size_t n, const double *mu, const double *R, const double *Z,
                             const double *Peta, const struct gcp_canon_lift_soa *o,
                             int32_t *status);
+    /* Optional (with lift_eval_block): lift_ham at n samples of it, from
+     * their |B| and d|B|/dz (Bm, dBm1, dBm2) at P_eta Peta[j], magnetic
+     * moment mu[j]: dH/dz 1 .. 3 into dH1 .. dH3 (the same numbers as
+     * lift_ham); status[j] 0 or lift_ham's status. */
+    void (*lift_ham_block)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                           size_t n, const double *mu, const double *Bm, const double *dBm1,
+                           const double *dBm2, const double *Peta, double *dH1, double *dH2,
+                           double *dH3, int32_t *status);
     /* Optional: from_canon at n states (SoA z0 .. z3, guesses aux0, aux1)
      * for those it maps at its first Newton iterate (done[j] = 1: X0 .. X2,
      * ppar and aux written, the same numbers as from_canon); the others

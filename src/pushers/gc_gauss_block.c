@@ -10,12 +10,18 @@
  * and one branch-free loop the compiler vectorises); the Newton update is
  * another such loop.  A running mask (ASCOT5 style) records which lanes have
  * converged or failed: their values are computed but not taken, so the loops
- * stay branch free, and the iteration ends when no lane is iterating.
+ * stay branch free, and the iteration ends when no lane is iterating.  Once
+ * at most half the chunk is iterating, the field is evaluated at those lanes'
+ * points only (gb_lift_active): the chunk iterates as long as its slowest
+ * lane (6.5 iterations a step for gc-gl2 in bench_push's scene, where a lane
+ * takes 3.4 on average).  The chunk's work space lives as long as the
+ * advance (gl_ctx.block_scratch), not a step.
  *
  * The map is that of gl_step_lift, operation for operation (the same
  * predictor and points, gcp_gl_lift_begin; the same DF and dF/dP_phi; the
  * same J^-1 as gcp_gl_lift_jinv, gb_jinv; the same update, convergence and
- * abandon tests; the same end, gcp_gl_lift_peek and gcp_gl_lift_end): each
+ * abandon tests; the same end, gcp_gl_lift_peek and gcp_gl_lift_end; the
+ * chart's lift_ham_block, where it has one, gives lift_ham's numbers): each
  * lane's numbers are those of the per-lane solver (bench_push's gc-gl2 and
  * gc-gl4 blocks end on the same positions to the last digit printed, 17).  A lane
  * whose lifted solve fails (predictor, a chart evaluation, a singular J, an
@@ -58,6 +64,85 @@ int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h)
     return ok ? 0 : -1;
 }
 
+/* The chart point of stage wi from the curve P_phi = P_phi(z0) on which
+ * every stage point and the start lie (a fixed curve of the chart: a field
+ * line in the curl-free one, smooth through the mirror points, where eta(t)
+ * turns), at the stage's eta from the predicted slopes K,
+ *   eta_i = eta0 + h sum_j a_ij K_j^eta.
+ * The curve as a cubic in d = eta - eta_s about the last stage point of the
+ * last step (p_s, eta_s, with its dp/deta t1 and d^2p/deta^2 t2, kept by
+ * gcp_gl_lift_end), its cubic coefficient from the start point p0 (the end
+ * of the last step, mapped to round-off; D0 = eta0 - eta_s):
+ *   p(eta) = p_s + t1 d + t2 d^2/2 + (p0 - p_s - t1 D0 - t2 D0^2/2) (d/D0)^3.
+ * Its error is O(d^4) and that of t2 (a difference) times d^2, where the
+ * polynomial in time through the last stage points (gcp_gl_points_extrap) has
+ * O(h^3) with the bounce's time scale in it: ~1e-6 of the scale against
+ * ~1e-3, so that the first Newton update and, with DF computed at these
+ * points, the contraction of the rest are smaller.  The cubic term is left
+ * out where |d| > 4 |D0| (eta0 ~ eta_s near a mirror point: (d/D0)^3 would
+ * amplify the remainder's round-off). */
+static inline __attribute__((always_inline)) void
+gl_points_curve_s(const struct gl_tableau *T, int s, const struct gl_lane *L, double h,
+                  const double K[GL_SMAX][2], int wi, double *out)
+{
+    double ae = 0.0;
+    for (int j = 0; j < s; j++) ae += T->a[wi][j] * K[j][0];
+    const double d = L->z[1] + h * ae - L->ceta, D0 = L->z[1] - L->ceta;
+    const double w = fabs(d) <= 4.0 * fabs(D0) ? d / D0 : 0.0, w3 = w * w * w;
+    for (int r = 0; r < 2; r++) {
+        const double ps = L->aux[s][r];
+        const double rem = L->aux[0][r] - (ps + L->ct1[r] * D0 + 0.5 * L->ct2[r] * D0 * D0);
+        out[r] = ps + L->ct1[r] * d + 0.5 * L->ct2[r] * d * d + rem * w3;
+    }
+}
+
+/* gcp_gl_lift_begin of a lane in the steady state (slopes of nh steps and
+ * the curve kept) with s and nh constants: gcp_gl_predict's and
+ * gl_points_curve_s's operations in their order (the same numbers), unrolled
+ * (this runs for every lane at every step). */
+static inline __attribute__((always_inline)) void
+gl_begin_steady(const struct gl_ctx *C, const struct gl_lane *L, double h, int s, int nh,
+                double K[GL_SMAX][2], double p[GL_SMAX][2])
+{
+    const double(*kh[3])[2] = {L->K3, L->K2, L->K};
+    for (int i = 0; i < s; i++) {
+        const double *w = C->wK[nh - 2][i];
+        K[i][0] = K[i][1] = 0.0;
+        for (int a = 0; a < nh; a++)
+            for (int j = 0; j < s; j++) {
+                const double *km = kh[3 - nh + a][j], wm = w[a * s + j];
+                K[i][0] += wm * km[0], K[i][1] += wm * km[1];
+            }
+    }
+    for (int i = 0; i < s; i++) gl_points_curve_s(C->tab, s, L, h, K, i, p[i]);
+}
+
+/* The start of a lifted step: predicted slopes K and stage points p; the
+ * stage points are those of the last two steps (nodes c_j - 2, c_j - 1)
+ * and the start point (node 0) extrapolated to c_i.  0 or -1. */
+int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                      const struct gl_lane *L, double h, double K[GL_SMAX][2],
+                      double p[GL_SMAX][2])
+{
+    if (!(L->sc_pphi > 0.0)) return -1;
+    if (C->have_wext && L->have_C) {
+        if (C->tab->s == 2 && L->have_K >= 2) {
+            gl_begin_steady(C, L, h, 2, 2, K, p);
+            return 0;
+        }
+        if (C->tab->s == 1 && L->have_K >= 3) {
+            gl_begin_steady(C, L, h, 1, 3, K, p);
+            return 0;
+        }
+    }
+    if (gcp_gl_predict(C, k, L, K)) return -1;
+    for (int i = 0; i < C->tab->s; i++) {
+        if (L->have_C) gl_points_curve_s(C->tab, C->tab->s, L, h, K, i, p[i]);
+        else gcp_gl_points_extrap(C, L, i, p[i]);
+    }
+    return 0;
+}
+
 /* The end of a converged lifted step without changing L: the end state z
  * (gcp_gl_end_state) and the end point's guess pe for from_canon.  The guess:
  * the end point lies on the curve P_phi = P_phi(z0) through the stage points
@@ -92,11 +177,18 @@ void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
 /* The end of a converged lifted step into L: its end state z, t
  * (gcp_gl_lift_peek's), the end point pe (from_canon's), the slopes K and
  * stage points p kept for the next predictor. */
-void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[GL_SMAX][2],
-                     const double z[4], double t, const double p[GL_SMAX][2],
-                     const double pe[2])
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
+                     const double K[GL_SMAX][2], const double z[4], double t,
+                     const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                     const double t2[GL_SMAX][2], const double pe[2])
 {
     const struct gl_tableau *T = C->tab;
+    const int s = T->s;
+    double ae = 0.0;
+    for (int j = 0; j < s; j++) ae += T->a[s - 1][j] * K[j][0];
+    L->ceta = L->z[1] + h * ae;
+    for (int r = 0; r < 2; r++) L->ct1[r] = t1[s - 1][r], L->ct2[r] = t2[s - 1][r];
+    L->have_C = isfinite(L->ceta + L->ct1[0] + L->ct1[1] + L->ct2[0] + L->ct2[1]);
     gl_lane_accept(L, z, t, K);
     memcpy(L->pst2, &L->aux[1], sizeof L->pst2);
     for (int r = 0; r < 2; r++) {
@@ -139,6 +231,10 @@ struct gb_chunk {
     double d[4][GB_BLK], e[GL_SMAX][GB_BLK];
     unsigned char state[GB_BLK];
     struct gb_eval ev, ev2;
+    /* the points of the lanes still iterating, packed (gb_lift_active) */
+    struct gb_eval evc;
+    double cmu[NP], cR[NP], cZ[NP], cPe[NP];
+    size_t pk[NP];
     /* the end points mapped back (from_canon_block) */
     double ze[4][GB_BLK], te[GB_BLK], a0[GB_BLK], a1[GB_BLK], Xe[3][GB_BLK], pe[GB_BLK];
     int32_t mapped[GB_BLK], code[GB_BLK];
@@ -256,6 +352,47 @@ static void gb_update(const struct gl_tableau *T, struct gb_chunk *c, size_t m, 
     }
 }
 
+/* The block evaluation of an iteration at the stage points of the lanes
+ * still iterating only: a lane that has converged (or failed) is masked in
+ * gb_update and the tests, so its points need no evaluation, and the later
+ * iterations, where a few lanes are left, cost those lanes' points rather
+ * than the chunk's (each lane's numbers are unchanged: the same evaluation
+ * at the same point).  left: the lanes iterating; packed only where at most
+ * half of the chunk is (the gather and scatter cost instructions too; in
+ * bench_push's scene, instructions a step: 13% (gc-gl2) and 12% (gc-gl4)
+ * fewer than without packing, and fewer than packing at 1/4). */
+static void gb_lift_active(const struct gl_ctx *C, struct gb_chunk *c,
+                           const struct gcp_gc_consts *k, size_t m, int s, size_t left,
+                           size_t np)
+{
+    if (2 * left > m) {
+        gb_lift(C, k, np, c->mu, c->R, c->Z, c->Pe, &c->ev);
+        return;
+    }
+    size_t n = 0;
+    for (int i = 0; i < s; i++)
+        for (size_t j = 0; j < m; j++) {
+            const size_t q = (size_t)i * m + j;
+            c->pk[n] = q;
+            n += c->state[j] == GB_ITER;
+        }
+    for (size_t a = 0; a < n; a++) {
+        const size_t q = c->pk[a];
+        c->cmu[a] = c->mu[q], c->cR[a] = c->R[q], c->cZ[a] = c->Z[q], c->cPe[a] = c->Pe[q];
+    }
+    gb_lift(C, k, n, c->cmu, c->cR, c->cZ, c->cPe, &c->evc);
+    struct gb_eval *e = &c->ev;
+    const struct gb_eval *o = &c->evc;
+    for (size_t a = 0; a < n; a++) {
+        const size_t q = c->pk[a];
+        e->Pphi[q] = o->Pphi[a], e->eta[q] = o->eta[a], e->H[q] = o->H[a];
+        e->dH1[q] = o->dH1[a], e->dH2[q] = o->dH2[a], e->dH3[q] = o->dH3[a];
+        e->Bm[q] = o->Bm[a], e->dBm1[q] = o->dBm1[a], e->dBm2[q] = o->dBm2[a];
+        e->dp00[q] = o->dp00[a], e->dp01[q] = o->dp01[a], e->dp10[q] = o->dp10[a];
+        e->dp11[q] = o->dp11[a], e->st[q] = o->st[a];
+    }
+}
+
 /* The lifted solve of the m lanes L[0 .. m) (block lanes i0 ..); the
  * lanes it cannot step take the per-lane path.  Non-zero when a lane failed. */
 static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_block *b,
@@ -268,7 +405,7 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
     for (size_t j = 0; j < m; j++) {
         double K[GL_SMAX][2], p[GL_SMAX][2];
         k.mu = b->mu[i0 + j];
-        c->state[j] = gcp_gl_lift_begin(C, &k, &L[j], K, p) ? GB_FAIL : GB_ITER;
+        c->state[j] = gcp_gl_lift_begin(C, &k, &L[j], h, K, p) ? GB_FAIL : GB_ITER;
         c->z1[j] = L[j].z[1], c->z2[j] = L[j].z[2], c->z3[j] = L[j].z[3];
         c->sc0[j] = L[j].sc[0], c->sc1[j] = L[j].sc[1], c->scp[j] = L[j].sc_pphi;
         c->nprev[j] = INFINITY;
@@ -295,7 +432,7 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
                 c->Pe[q0 + j] = c->z3[j] + h * P;
             }
         }
-        gb_lift(C, &k, np, c->mu, c->R, c->Z, c->Pe, &c->ev);
+        gb_lift_active(C, c, &k, m, s, left, np);
         for (int i = 0; i < s; i++)
             for (size_t j = 0; j < m; j++)
                 c->state[j] = c->state[j] == GB_ITER && c->ev.st[(size_t)i * m + j] ? GB_FAIL
@@ -324,21 +461,37 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
              * numbers, with dF/dP_phi: the Hessian of H is symmetric, so
              * d(dH/dP_eta)/dP_phi and d(dH/deta)/dP_phi are the derivatives of
              * the sampled dH/dP_phi along P_eta and eta) in loops over the lanes */
-            for (int i = 0; i < s; i++)
-                for (size_t j = 0; j < m; j++) {
-                    const size_t q = (size_t)i * m + j;
-                    struct gcp_canon_lift o = {0};
-                    o.Pphi = c->ev.Pphi[q], o.eta = c->ev.eta[q], o.Bm = c->ev.Bm[q];
-                    o.dBm[1] = c->ev.dBm1[q], o.dBm[2] = c->ev.dBm2[q];
-                    double H2, dH2[4] = {0.0, 0.0, 0.0, 0.0};
-                    c->hP[q] = c->Pe[q] + GL_FD * c->sc1[j];
-                    k.mu = b->mu[i0 + j];
-                    const int bad = c->state[j] != GB_ITER ||
-                                    C->chart.lift_ham(&C->chart, &k, &o, c->hP[q], &H2, dH2) ||
-                                    c->ev2.st[q];
-                    c->state[j] = bad ? GB_FAIL : c->state[j];
-                    c->h1[q] = dH2[1], c->h2[q] = dH2[2], c->h3[q] = dH2[3];
-                }
+            if (C->chart.lift_ham_block) {
+                /* the same numbers as lift_ham's, in one loop over the chunk */
+                int32_t hst[NP];
+                for (int i = 0; i < s; i++)
+                    for (size_t j = 0; j < m; j++)
+                        c->hP[(size_t)i * m + j] = c->Pe[(size_t)i * m + j] + GL_FD * c->sc1[j];
+                C->chart.lift_ham_block(&C->chart, &k, np, c->mu, c->ev.Bm, c->ev.dBm1,
+                                        c->ev.dBm2, c->hP, c->h1, c->h2, c->h3, hst);
+                for (int i = 0; i < s; i++)
+                    for (size_t j = 0; j < m; j++) {
+                        const size_t q = (size_t)i * m + j;
+                        const int bad = c->state[j] != GB_ITER || hst[q] || c->ev2.st[q];
+                        c->state[j] = bad ? GB_FAIL : c->state[j];
+                    }
+            } else {
+                for (int i = 0; i < s; i++)
+                    for (size_t j = 0; j < m; j++) {
+                        const size_t q = (size_t)i * m + j;
+                        struct gcp_canon_lift o = {0};
+                        o.Pphi = c->ev.Pphi[q], o.eta = c->ev.eta[q], o.Bm = c->ev.Bm[q];
+                        o.dBm[1] = c->ev.dBm1[q], o.dBm[2] = c->ev.dBm2[q];
+                        double H2, dH2[4] = {0.0, 0.0, 0.0, 0.0};
+                        c->hP[q] = c->Pe[q] + GL_FD * c->sc1[j];
+                        k.mu = b->mu[i0 + j];
+                        const int bad = c->state[j] != GB_ITER ||
+                                        C->chart.lift_ham(&C->chart, &k, &o, c->hP[q], &H2, dH2) ||
+                                        c->ev2.st[q];
+                        c->state[j] = bad ? GB_FAIL : c->state[j];
+                        c->h1[q] = dH2[1], c->h2[q] = dH2[2], c->h3[q] = dH2[3];
+                    }
+            }
             for (int i = 0; i < s; i++)
                 for (size_t j = 0; j < m; j++) {
                     const size_t q = (size_t)i * m + j;
@@ -433,7 +586,13 @@ static int32_t gb_chunk(const struct gl_ctx *C, struct gb_chunk *c, struct gcp_b
         gb_lane_end(c, j, m, s, K, pd, p);
         const double pe[2] = {c->a0[a], c->a1[a]};
         const double z[4] = {c->ze[0][a], c->ze[1][a], c->ze[2][a], c->ze[3][a]};
-        gcp_gl_lift_end(C, &L[j], K, z, c->te[a], p, pe);
+        double t1[GL_SMAX][2], t2[GL_SMAX][2];
+        for (int st = 0; st < s; st++) {
+            const size_t q = (size_t)st * m + j;
+            t1[st][0] = c->t1R[q], t1[st][1] = c->t1Z[q];
+            t2[st][0] = c->t2R[q], t2[st][1] = c->t2Z[q];
+        }
+        gcp_gl_lift_end(C, &L[j], h, K, z, c->te[a], p, t1, t2, pe);
         b->x[i] = c->Xe[0][a], b->y[i] = c->Xe[1][a], b->z[i] = c->Xe[2][a];
         b->ppar[i] = c->pe[a];
         b->fstatus[i] = 0;
@@ -463,7 +622,8 @@ int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double
     (void)t;
     const struct gl_ctx *C = ctx;
     struct gl_lane *L = (struct gl_lane *)(void *)lanes;
-    struct gb_chunk *c = aligned_alloc(64, (sizeof *c + 63) / 64 * 64);
+    struct gb_chunk *c = C->block_scratch;
+    if (!c) c = gcp_gl_block_scratch();
     int32_t failed = 0;
     if (!c) {
         for (size_t i = 0; i < n; i++) {
@@ -474,6 +634,11 @@ int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double
     }
     for (size_t i0 = 0; i0 < n; i0 += GB_BLK)
         failed |= gb_chunk(C, c, b, i0, n - i0 < GB_BLK ? n - i0 : GB_BLK, h, L + i0);
-    free(c);
+    if (c != C->block_scratch) free(c);
     return failed;
+}
+
+void *gcp_gl_block_scratch(void)
+{
+    return aligned_alloc(64, (sizeof(struct gb_chunk) + 63) / 64 * 64);
 }

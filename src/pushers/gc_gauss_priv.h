@@ -25,12 +25,15 @@ struct gl_ctx {
     struct gcp_canon_chart chart;
     double sundman_a; /* [1] exponent of w = (B_ref/|B|)^a; 0: plain time steps */
     /* Lagrange weights of the lifted solver's point predictor (gc_gauss.c
-     * gl_points_extrap) by [have_P][stage][node], filled once by
+     * gcp_gl_points_extrap) by [have_P][stage][node], filled once by
      * gcp_gl_ctx_weights (have_wext = 0: computed at each use) */
     double wext[3][GL_SMAX][2 * GL_SMAX + 1];
-    /* and of the slope predictor (gl_predict) by [history - 2][stage][node] */
+    /* and of the slope predictor (gcp_gl_predict) by [history - 2][stage][node] */
     double wK[2][GL_SMAX][3 * GL_SMAX];
     int have_wext;
+    /* the block solver's work space (gcp_gl_block_scratch; freed by the
+     * advance that allocated it), NULL: allocated at each block step */
+    void *block_scratch;
 };
 /* Fills C->wext (C->tab set). */
 void gcp_gl_ctx_weights(struct gl_ctx *C);
@@ -55,6 +58,10 @@ struct gl_lane {
     double Jinv[16];            /* J^-1 (lifted solver: a product, not a solve, per iteration) */
     double pst2[GL_SMAX][2];    /* the stage points of the step before the last (lifted solver) */
     int have_P;                 /* steps whose stage points are kept: 0, 1 (aux[1 + i]), 2 (+ pst2) */
+    /* the curve P_phi = const at the last stage point of the last lifted
+     * step (gc_gauss_block.c gl_points_curve_s): its eta and dp/deta, d^2p/deta^2 */
+    double ceta, ct1[2], ct2[2];
+    int have_C;                 /* [bool] ceta, ct1, ct2 are the last step's */
     double hJ;                  /* step of the kept Jacobian */
     double t;                   /* [s] physical time (advanced by the step) */
     double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */
@@ -154,27 +161,37 @@ int gcp_gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
  * skips the lifted solver (the block solver's fallback). */
 int gcp_gl_step_lane(const struct gl_ctx *C, struct gcp_block *b, size_t i, double h,
                      struct gl_lane *L, int lift);
+/* gc_gauss.c's predictors of a step: the slopes K from the last steps'
+ * (see its header; 0 or -1) and the chart point of stage wi by the
+ * polynomial in time through the kept stage points. */
+int gcp_gl_predict(const struct gl_ctx *C, const struct gcp_gc_consts *k,
+                   const struct gl_lane *L, double K[GL_SMAX][2]);
+void gcp_gl_points_extrap(const struct gl_ctx *C, const struct gl_lane *L, int wi, double *out);
 /* Pieces of the lifted solver shared with gc_gauss_block.c: its start
- * (gc_gauss.c: predicted slopes K, stage points p; 0 or -1), J^-1 from
- * L->DF (0 or -1), and its end (these two in gc_gauss_block.c):
+ * (predicted slopes K, stage points p; 0 or -1), J^-1 from
+ * L->DF (0 or -1), and its end (all in gc_gauss_block.c):
  * gcp_gl_lift_peek, without changing L, the end state z, t and the end
  * point's guess pe from a converged step's slopes K, quadrature rates pd,
  * stage points p with their dp/deta t1 and d^2p/deta^2 t2;
  * gcp_gl_lift_end, the step into L with the end point pe. */
 int gcp_gl_lift_begin(const struct gl_ctx *C, const struct gcp_gc_consts *k,
-                      const struct gl_lane *L, double K[GL_SMAX][2], double p[GL_SMAX][2]);
+                      const struct gl_lane *L, double h, double K[GL_SMAX][2],
+                      double p[GL_SMAX][2]);
 int gcp_gl_lift_jinv(const struct gl_ctx *C, struct gl_lane *L, double h);
 void gcp_gl_lift_peek(const struct gl_ctx *C, const struct gl_lane *L, double h,
                       const double K[GL_SMAX][2], const double pd[GL_SMAX][2],
                       const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
                       const double t2[GL_SMAX][2], double z[4], double *t, double pe[2]);
-void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, const double K[GL_SMAX][2],
-                     const double z[4], double t, const double p[GL_SMAX][2],
-                     const double pe[2]);
+void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
+                     const double K[GL_SMAX][2], const double z[4], double t,
+                     const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
+                     const double t2[GL_SMAX][2], const double pe[2]);
 /* The lifted solve over the n live lanes of b at once (gc_gauss_block.c;
  * gcp_gc_lane_ops.step_block), the per-lane path for lanes it fails. */
 int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,
                           unsigned char *lanes);
+/* The block solver's work space (free() it), or NULL. */
+void *gcp_gl_block_scratch(void);
 /* gcp_pusher_type.applies of the methods that need a canonical chart. */
 int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
 
