@@ -240,13 +240,68 @@ static int ref_point(const struct numchart *n, double pn, double eta, double y[5
     return 0;
 }
 
+/* The gauge of A_eta: A = 0 on the axis (A_eta deta must vanish there for
+ * the one-form to be regular at the chart's pole), i.e.
+ *   A(rho, eta) = int_0^rho J B^phi drho',  J = Z_rho R_eta - R_rho Z_eta,
+ * along the gradient line eta.  The tracing reaches node 1 (rho = drho);
+ * the piece from there to the axis is not a polynomial in rho at an
+ * elongated axis: there psi - psi_a = (l1 x^2 + l2 y^2)/2 in the Hessian's
+ * eigen-axes (x, y), the gradient lines are the power curves y = C x^n,
+ * n = l2/l1 (tangent to one axis at the pole, turning at a rho that goes to 0
+ * as the line nears the other axis), and a quadratic extrapolation of A
+ * through nodes 1, 2, 3 (as before) errs by an amount that varies with
+ * eta on the scale of that turn: a ~0.25 rad wiggle in eta of A_eta at every
+ * rho in DIII-D, which Gauss-Legendre methods (not invariant under the
+ * gauge map P_eta -> P_eta + q f(eta)) turn into an energy drift
+ * (tests/unit/test_gc_symplectic_flux.c).  In the quadratic model the piece
+ * has a closed form in the line's point (x, y) and tangent (x_e, y_e) at
+ * node 1: with alpha = (x dy - y dx)/2 (d alpha = dx ^ dy), the integrand
+ * is -(d alpha)_(rho eta), so by Stokes on the strip between the pole and
+ * rho, int_0^rho J drho' = -alpha_eta + d/deta int_line alpha, and along
+ * y = C x^n, x dy - y dx = (n - 1) y dx integrates to
+ * ((n - 1)/(n + 1)) x y: hence
+ *   int_0^rho J drho' = (n y x_e - x y_e) / (n + 1),
+ * (n = 1, rays: -r^2/2), times B_phi on the axis.  A smooth function of the
+ * line's data at node 1, exact for a quadratic psi and constant B_phi; the
+ * error is O(drho^3) (cubic terms of psi, B_phi's gradient), smooth in eta. */
+struct axis_model {
+    double Ra, Za, c, s; /* the axis and the eigen-axis x = (c, s), y = (-s, c) */
+    double n;            /* l2 / l1 */
+    double Bphi;         /* [T] B_phi on the axis */
+};
+
+static void axis_model(const struct gcp_field *f, double Ra, double Za, struct axis_model *m)
+{
+    double p[6];
+    gcp_field_psi_RZ(f, Ra, Za, p);
+    const double a = p[3], b = p[4], c = p[5];
+    const double th = 0.5 * atan2(2.0 * b, a - c); /* x along the eigenvalue l1 */
+    const double mid = 0.5 * (a + c), rad = hypot(0.5 * (a - c), b);
+    m->Ra = Ra, m->Za = Za, m->c = cos(th), m->s = sin(th);
+    m->n = (mid - rad) / (mid + rad); /* l2 / l1 (same sign at an extremum) */
+    const double X[3] = {Ra, 0.0, Za};
+    struct gcp_field_sample fs = {.need = GCP_NEED_B};
+    gcp_field_eval(f, 0.0, X, &fs);
+    m->Bphi = fs.B[1];
+}
+
+/* int_0^rho J drho' of the quadratic model at the line's point and tangent
+ * y = (R, Z, R_e, Z_e, ...). */
+static double inner_A(const struct axis_model *m, const double y[5])
+{
+    const double dR = y[0] - m->Ra, dZ = y[1] - m->Za;
+    const double x = m->c * dR + m->s * dZ, yy = -m->s * dR + m->c * dZ;
+    const double xe = m->c * y[2] + m->s * y[3], ye = -m->s * y[2] + m->c * y[3];
+    return (m->n * yy * xe - x * ye) / (m->n + 1.0);
+}
+
 /* Builds the table of f (axis guess Ra, Za; boundary flux pe).  0, or
  * GCP_ERR_STATE / GCP_ERR_NOMEM with why filled. */
 static int table_build(const struct gcp_field *f, double Ra, double Za, double pe,
                        struct numchart **out, char *why, size_t whylen)
 {
     struct numchart *n = calloc(1, sizeof *n);
-    double *tab = malloc(3 * NRHO * (NETA + 2 * NPAD) * sizeof *tab);
+    double *tab = malloc((3 * NRHO + 1) * (NETA + 2 * NPAD) * sizeof *tab);
     if (!n || !tab) {
         free(n), free(tab);
         snprintf(why, whylen, "out of memory");
@@ -264,7 +319,9 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
     n->rho_max = sqrt(PSIN_MAX);
     const double drho = n->rho_max / (NRHO - 1), deta = 2.0 * GCP_PI / NETA;
     const size_t ne = NETA + 2 * NPAD, nn = (size_t)NRHO * ne;
-    double *TR = tab, *TZ = tab + nn, *TA = tab + 2 * nn;
+    double *TR = tab, *TZ = tab + nn, *TA = tab + 2 * nn, *TI = tab + 3 * nn;
+    struct axis_model ax;
+    axis_model(f, Ra, Za, &ax);
     struct trace_ctx tc = {.f = f, .dpsi = n->dpsi, .status = 0};
     gsl_odeiv2_system sys = {trace_rhs, NULL, 5, &tc};
     gsl_odeiv2_driver *d =
@@ -292,6 +349,7 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
                     if (jj < 0 || jj >= (int)ne) continue;
                     const size_t at = (size_t)i + (size_t)NRHO * (size_t)jj;
                     TR[at] = y[0], TZ[at] = y[1], TA[at] = y[4];
+                    if (i == 1) TI[jj] = ax.Bphi * inner_A(&ax, y); /* node 1 .. the axis */
                 }
             }
         }
@@ -305,18 +363,14 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
         free(n), free(tab);
         return GCP_ERR_STATE;
     }
-    /* The axis row, and A = 0 there.  A was integrated from the reference
-     * surface; A(0, eta) is the quadratic through nodes 1, 2, 3 extrapolated
-     * to rho = 0 (A = O(rho^2) there).  Its error adds a gauge term
-     * f(eta) deta: no effect on the exact motion, but not smooth near an
-     * elongated axis (in DIII-D a ~0.25 rad wiggle in eta, in A_eta at every
-     * rho), and a Gauss-Legendre method is not invariant under P_eta ->
-     * P_eta + q f(eta): it is why gc-gl2/gl4's energy is not bounded there
-     * (tests/unit/test_gc_symplectic_flux.c, eqdsk_long_run_energy_bounded). */
+    /* The axis row, and A = 0 there: A was integrated from the reference
+     * surface down to node 1; the rest, node 1 .. the axis, is the axis
+     * model's inner_A (a smooth function of the line's point and tangent at
+     * node 1), so A(0, eta) = A(node 1) - inner. */
     for (size_t jj = 0; jj < ne; jj++) {
         double *r = TR + NRHO * jj, *z = TZ + NRHO * jj, *a = TA + NRHO * jj;
         r[0] = Ra, z[0] = Za;
-        const double a0 = 3.0 * a[1] - 3.0 * a[2] + a[3];
+        const double a0 = a[1] - TI[jj];
         for (int i = 1; i < NRHO; i++) a[i] -= a0;
         a[0] = 0.0;
     }
