@@ -5,6 +5,8 @@
  *   z0 --from_canon--> (X, p_par) --one step--> --to_canon--> z1.
  */
 #include <criterion/criterion.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_odeiv2.h>
 
 #include "gcpush/grid.h"
 #include "pushers/canon_priv.h"
@@ -199,15 +201,68 @@ Test(gc_symplectic_flux, eqdsk_one_step_map_is_symplectic, .timeout = 120)
 
 /* ---- order ---- */
 
-/* Position after one bounce period T_b with h = T_b/N against gc-rk8pd at
- * tolerance 1e-13 (the reference: an independent adaptive method, its error
- * ~1e-12 of the orbit, far below the errors measured).  The error ratios at
- * halved h approach 2^p: 4 for gc-gl2, 16 for gc-gl4, asserted within 10%
- * at the last halving N0 -> 2 N0 (N0 / 2 -> N0 logged).
- *   Tokamak, N0 = 100: measured 4.00 and 15.99.
- *   DIII-D, N0 = 200 (at N = 50 .. 200 gc-gl4 is not yet asymptotic: ratios
- *   66, 28): measured 4.03 and 15.79.  With the bicubic psi of before there
- *   was no power law at all (8.3e-4, 1.3e-2, 4.5e-3 m at N = 50 .. 200). */
+/* Position after one bounce period T_b with h = T_b/N against the chart's
+ * own flow integrated by GSL rk8pd at tolerance 1e-13 (chart_reference: an
+ * independent method on the same canonical equations, its error ~1e-12 of
+ * the orbit, far below the errors measured).  Not gc-rk8pd on the
+ * guiding-centre equations in X: the tabulated chart's flow differs from
+ * those by the chart's tabulation error (test_canon_flux.c: 2.4e-8 of the
+ * flow in DIII-D at rho/rho_max in [0.2, 0.8]), ~3e-9 m after one bounce,
+ * a floor that gc-gl4 reaches at N ~ 200 in DIII-D; the order is the
+ * integrator's, the chart's fidelity test_canon_flux.c's.  The error ratios
+ * at halved h approach 2^p: 4 for gc-gl2, 16 for gc-gl4, asserted within
+ * 10% at the last halving N0 -> 2 N0 (N0 / 2 -> N0 logged).
+ *   Tokamak (exact, analytic chart), N0 = 100: measured 3.98, 4.00 and
+ *   15.96, 15.66.
+ *   DIII-D, N0 = 100: gc-gl2 measured 3.99, 3.99.  gc-gl4 has no clean
+ *   ratio there: 1.7e-6, 2.2e-7, 4.8e-9, 2.7e-9, 8.8e-11 m at N = 50 .. 800
+ *   (ratios 7.6, 46, 1.8, 31; the same at 0.25, 0.5, 0.75 T_b, and against
+ *   gc-rk8pd in X).  The tabulated chart and psi are C4 quintic splines, so
+ *   F = J grad H, which holds their second derivatives, is only C2: its
+ *   third derivative jumps at every cell boundary a step crosses, and the
+ *   Gauss-Legendre order-4 error expansion (which needs F in C4) breaks
+ *   into an irregular part once the error is down to ~1e-8 m; a C6 table
+ *   and psi would be needed for a clean 16 (not done).  Asserted for gc-gl4
+ *   in DIII-D: at least third order over N = 50 -> 200, a ratio >= 0.9 x
+ *   2^6 (measured 347), and below 1e-5 m at N = 100 (measured 2.2e-7; with
+ *   the geometric eta labels and the extrapolated gauge of before, 2.1e-4).
+ *   With the bicubic psi of before that there was no power law at all. */
+struct cref {
+    const struct fsys *S;
+    double aux[2];
+};
+
+static int cref_rhs(double t, const double z[], double dz[], void *v)
+{
+    (void)t;
+    struct cref *c = v;
+    double H, dH[4];
+    if (c->S->ch.hamiltonian(&c->S->ch, &c->S->k, z, c->aux, &H, dH)) return GSL_EBADFUNC;
+    dz[0] = dH[2], dz[1] = dH[3], dz[2] = -dH[0], dz[3] = -dH[1];
+    return GSL_SUCCESS;
+}
+
+static void chart_reference(const struct fsys *S, double Xr[3])
+{
+    struct cref c = {S, {0, 0}};
+    double z[4], zp[4], auxp[2], pp;
+    cr_assert_eq(S->ch.to_canon(&S->ch, &S->k, S->X, S->ppar, z, c.aux), 0);
+    const double ptot = sqrt(S->ppar * S->ppar + 2 * S->k.m * S->k.mu * gc_Bmag(S->f, S->X));
+    cr_assert_eq(S->ch.to_canon(&S->ch, &S->k, S->X, S->ppar + ptot, zp, auxp), 0);
+    /* absolute tolerance per component: 1 rad for the angles, the momenta's
+     * change for a change p of p_par (their variation, not their size) */
+    const double sc[4] = {1.0, 1.0, fabs(zp[2] - z[2]), fabs(zp[3] - z[3])};
+    gsl_odeiv2_system sys = {cref_rhs, NULL, 4, &c};
+    gsl_odeiv2_driver *d = gsl_odeiv2_driver_alloc_scaled_new(
+        &sys, gsl_odeiv2_step_rk8pd, S->Tb / 200, 1e-13, 0.0, 1.0, 0.0, sc);
+    double t = 0.0;
+    const int rc = gsl_odeiv2_driver_apply(d, &t, S->Tb, z);
+    gsl_odeiv2_driver_free(d);
+    cr_assert_eq(rc, GSL_SUCCESS, "%s: chart reference failed", S->name);
+    cr_assert_eq(S->ch.from_canon(&S->ch, &S->k, z, c.aux, Xr, &pp), 0);
+    /* phi: the chart's flow at phi = z[0], the methods' X at the same phi */
+}
+
 static double end_error(const struct fsys *S, const struct gcp_pusher_type *p, double h, int n,
                         const double Xref[3])
 {
@@ -217,24 +272,25 @@ static double end_error(const struct fsys *S, const struct gcp_pusher_type *p, d
     return hypot(hypot(X[0] - Xref[0], X[1] - Xref[1]), X[2] - Xref[2]);
 }
 
-static void order_check(struct fsys *S, int N0)
+static void order_check(struct fsys *S, int N0, int gl4_tabulated)
 {
-    double Xr[3] = {S->X[0], S->X[1], S->X[2]}, pp = S->ppar, t = 0.0;
-    /* dt = T_b / 200: its first trial step (dt = T_b would leave the domain,
-     * and gc-rk8pd reports the trial point's status) */
-    const struct gcp_push_opts o = {0.0, S->Tb / 200, 200, 1e-13, 0.0};
-    const int st = gcp_gc_push(S->f, &gcp_pusher_gc_rk8pd, S->k.q, S->k.m, &o, &t, Xr, &pp,
-                               S->k.mu, NULL, NULL);
-    cr_assert_eq(st, 0, "%s: reference status %d", S->name, st);
+    double Xr[3];
+    chart_reference(S, Xr);
     const struct gcp_pusher_type *sym[] = {&gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4};
     const double want[] = {4.0, 16.0};
     for (int k = 0; k < 2; k++) {
-        double prev = NAN;
+        double prev = NAN, first = NAN;
         for (int N = N0 / 2; N <= 2 * N0; N *= 2) {
             const double e = end_error(S, sym[k], S->Tb / N, N, Xr);
             cr_log_info("%-18s %-7s N %3d error %.3e m ratio %.2f", S->name, sym[k]->name, N, e,
                         prev / e);
-            if (N == 2 * N0)
+            if (N == N0 / 2) first = e;
+            if (N == N0 && k == 1 && gl4_tabulated)
+                cr_expect(e < 1e-5, "%s %s: error %.2e m at N %d", S->name, sym[k]->name, e, N);
+            if (N == 2 * N0 && k == 1 && gl4_tabulated)
+                cr_expect(first / e > 0.9 * 64.0, "%s %s: ratio %.1f over two halvings, want "
+                          ">= 0.9 x 2^6", S->name, sym[k]->name, first / e);
+            else if (N == 2 * N0)
                 cr_expect(fabs(prev / e / want[k] - 1) < 0.1, "%s %s: ratio %.2f, want %.0f",
                           S->name, sym[k]->name, prev / e, want[k]);
             prev = e;
@@ -246,7 +302,7 @@ Test(gc_symplectic_flux, tokamak_order, .timeout = 120)
 {
     struct fsys S;
     sys_tokamak(&S);
-    order_check(&S, 100);
+    order_check(&S, 100, 0);
     fsys_free(&S);
 }
 
@@ -254,7 +310,7 @@ Test(gc_symplectic_flux, eqdsk_order, .timeout = 120)
 {
     struct fsys S;
     sys_eqdsk(&S);
-    order_check(&S, 200);
+    order_check(&S, 100, 1);
     fsys_free(&S);
 }
 
