@@ -475,8 +475,9 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
 
 /* ---- one table per equilibrium ----------------------------------------------
  * Building a table takes ~1 s CPU (an inward pass for the labels, then
- * NETA x NRHO rk8pd steps of 13 evaluations of psi and B); a chart is created wherever a method needs one (every
- * advance of a block, the scene's check).  So the tables are cached, one
+ * NETA x NRHO rk8pd steps of 13 evaluations of psi and B); a chart is
+ * created wherever a method needs one (every advance of a block, the
+ * scene's check).  So the tables are cached, one
  * entry, keyed by a fingerprint of the field: its type, the flux-surface
  * data, and psi with its derivatives and B at 8 points about the axis,
  * compared bit for bit.  Two fields with the same fingerprint are the same

@@ -190,7 +190,8 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
         }
         for (int i = 0; i < s; i++) {
             double ae = 0.0, aP = 0.0;
-            for (int j = 0; j < s; j++) ae += T->a[i][j] * d[2 * j], aP += T->a[i][j] * d[2 * j + 1];
+            for (int j = 0; j < s; j++)
+                ae += T->a[i][j] * d[2 * j], aP += T->a[i][j] * d[2 * j + 1];
             ae *= h, aP *= h;
             nd = fmax(nd, fmax(fabs(ae) / L->sc[0], fabs(aP) / L->sc[1]));
             const double b[2] = {r[i][0] - o[i].Pe[0] * ae, r[i][1] + aP - o[i].Pe[1] * ae};
