@@ -30,6 +30,10 @@
  * Derivatives of H by implicit differentiation: with lambda solving
  * (dG/dw)^T lambda = dH/dw,
  *   dH/dP = lambda,  dH/deta = H_eta - lambda . dG/deta,  dH/dphi = 0.
+ * The collocation solver does not invert the chart at every evaluation: it
+ * takes (s, p_par) of each stage as unknowns and evaluates the chart forward
+ * (flux_wlift_eval below, gc_gauss_wlift.c); the inversion remains for
+ * from_canon and the fallback solver.
  * Everything is the exact derivative of the chart's own H(z) (the field's
  * grad B is the derivative of its B; the chart's X_s, X_se, ... are the
  * derivatives of its X), so a symplectic integrator on z is symplectic to
@@ -48,9 +52,22 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 
+/* The chart's geometry and field at one point (s, eta), independent of
+ * p_par: one map of the chart and one field evaluation. */
+struct fgeom {
+    double R, Z;              /* [m] */
+    double R_s, Z_s;          /* [m/s-unit] dX/ds */
+    double psi, psi_s, psi_e; /* P_phi = q psi + p_par k, k = R b_phi = F/|B| */
+    double k, k_s, k_e;
+    double A, A_s, A_e; /* P_eta = q A_eta + p_par h, h = b . X_e */
+    double h, h_s, h_e;
+    double Bm, dBs, dBe; /* [T] |B|, d|B|/ds, d|B|/deta */
+    double h_res;        /* b . dX/ds: zero for an exact chart (the residual is a measure) */
+};
+
 /* Everything at one (s, eta, p_par). */
 struct fpoint {
-    double R, Z;     /* [m] */
+    struct fgeom g;
     double P[2];     /* (P_phi, P_eta) */
     double Gw[2][2]; /* d(P_phi, P_eta)/d(s, p_par) */
     double Ge[2];    /* d(P_phi, P_eta)/deta */
@@ -58,9 +75,6 @@ struct fpoint {
     double Hw[2];    /* dH/d(s, p_par) */
     double He;       /* dH/deta */
     double pscale;   /* [kg m/s] |p| + p_perp: the momentum scale for Newton */
-    double Bm;       /* [T] |B| */
-    double Bw0, Be;  /* d|B|/ds, d|B|/deta */
-    double h_s;      /* b . dX/ds: zero for an exact chart (the residual is a measure) */
 };
 
 /* d b along v = (vR, 0, vZ): (G v - b (b . G v)) / |B|; returns d|B| = b . G v. */
@@ -74,8 +88,7 @@ static double dir_deriv(const double G[3][3], const double b[3], double Bm, doub
     return dB;
 }
 
-static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k, double s,
-                       double eta, double p, struct fpoint *o)
+static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o)
 {
     struct gcp_polchart_pt g;
     int st = c->pc.map(c->pc.ctx, s, eta, &g);
@@ -87,72 +100,109 @@ static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_const
     if (!(Bm > 0.0)) return GCP_STEP_FAILED;
     const double b[3] = {fs.B[0] / Bm, fs.B[1] / Bm, fs.B[2] / Bm};
     double dbs[3], dbe[3];
-    const double dBs = dir_deriv(fs.gradB, b, Bm, g.R_s, g.Z_s, dbs);
-    const double dBe = dir_deriv(fs.gradB, b, Bm, g.R_e, g.Z_e, dbe);
+    o->dBs = dir_deriv(fs.gradB, b, Bm, g.R_s, g.Z_s, dbs);
+    o->dBe = dir_deriv(fs.gradB, b, Bm, g.R_e, g.Z_e, dbe);
+    o->Bm = Bm;
+    o->R = g.R, o->Z = g.Z, o->R_s = g.R_s, o->Z_s = g.Z_s;
+    o->psi = g.psi, o->psi_s = g.psi_s, o->psi_e = g.psi_e;
+    o->A = g.A, o->A_s = g.A_s, o->A_e = g.A_e;
     /* k = F/|B| = R b_phi;  h = b . X_e */
-    const double kk = g.R * b[1];
-    const double k_s = g.R_s * b[1] + g.R * dbs[1];
-    const double k_e = g.R_e * b[1] + g.R * dbe[1];
-    const double h = b[0] * g.R_e + b[2] * g.Z_e;
-    const double h_s = dbs[0] * g.R_e + dbs[2] * g.Z_e + b[0] * g.R_se + b[2] * g.Z_se;
-    const double h_e = dbe[0] * g.R_e + dbe[2] * g.Z_e + b[0] * g.R_ee + b[2] * g.Z_ee;
-    const double q = k->q;
-    o->R = g.R;
-    o->Z = g.Z;
-    o->P[0] = q * g.psi + p * kk;
-    o->P[1] = q * g.A + p * h;
-    o->Gw[0][0] = q * g.psi_s + p * k_s;
-    o->Gw[0][1] = kk;
-    o->Gw[1][0] = q * g.A_s + p * h_s;
-    o->Gw[1][1] = h;
-    o->Ge[0] = q * g.psi_e + p * k_e;
-    o->Ge[1] = q * g.A_e + p * h_e;
-    const double gam = gcp_gc_gamma(p, k->mu, Bm, k->m);
-    const double HB = k->mu / gam; /* dH/d|B| */
-    o->H = gam * k->m * GCP_C_LIGHT * GCP_C_LIGHT;
-    o->Hw[0] = HB * dBs;
-    o->Hw[1] = p / (gam * k->m);
-    o->He = HB * dBe;
-    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * Bm);
-    o->Bm = Bm, o->Bw0 = dBs, o->Be = dBe;
-    o->h_s = b[0] * g.R_s + b[2] * g.Z_s;
+    o->k = g.R * b[1];
+    o->k_s = g.R_s * b[1] + g.R * dbs[1];
+    o->k_e = g.R_e * b[1] + g.R * dbe[1];
+    o->h = b[0] * g.R_e + b[2] * g.Z_e;
+    o->h_s = dbs[0] * g.R_e + dbs[2] * g.Z_e + b[0] * g.R_se + b[2] * g.Z_se;
+    o->h_e = dbe[0] * g.R_e + dbe[2] * g.Z_e + b[0] * g.R_ee + b[2] * g.Z_ee;
+    o->h_res = b[0] * g.R_s + b[2] * g.Z_s;
     return st;
 }
 
+/* The momenta, their derivatives and H at the geometry g with p_par = p. */
+static void fpoint_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
+{
+    const struct fgeom *g = &o->g;
+    const double q = k->q;
+    o->P[0] = q * g->psi + p * g->k;
+    o->P[1] = q * g->A + p * g->h;
+    o->Gw[0][0] = q * g->psi_s + p * g->k_s;
+    o->Gw[0][1] = g->k;
+    o->Gw[1][0] = q * g->A_s + p * g->h_s;
+    o->Gw[1][1] = g->h;
+    o->Ge[0] = q * g->psi_e + p * g->k_e;
+    o->Ge[1] = q * g->A_e + p * g->h_e;
+    const double gam = gcp_gc_gamma(p, k->mu, g->Bm, k->m);
+    const double HB = k->mu / gam; /* dH/d|B| */
+    o->H = gam * k->m * GCP_C_LIGHT * GCP_C_LIGHT;
+    o->Hw[0] = HB * g->dBs;
+    o->Hw[1] = p / (gam * k->m);
+    o->He = HB * g->dBe;
+    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * g->Bm);
+}
+
+static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k, double s,
+                       double eta, double p, struct fpoint *o)
+{
+    const int st = fgeom_eval(c, s, eta, &o->g);
+    if (st == GCP_STEP_FAILED) return st;
+    fpoint_at(k, p, o);
+    return st;
+}
+
+/* dH/dz at the point of o by implicit differentiation (see the header):
+ * (dG/dw)^T lambda = dH/dw. */
+static void fpoint_dH(const struct fpoint *o, double dH[4])
+{
+    const double det = o->Gw[0][0] * o->Gw[1][1] - o->Gw[0][1] * o->Gw[1][0];
+    const double l0 = (o->Gw[1][1] * o->Hw[0] - o->Gw[1][0] * o->Hw[1]) / det;
+    const double l1 = (-o->Gw[0][1] * o->Hw[0] + o->Gw[0][0] * o->Hw[1]) / det;
+    dH[0] = 0.0;
+    dH[1] = o->He - l0 * o->Ge[0] - l1 * o->Ge[1];
+    dH[2] = l0;
+    dH[3] = l1;
+}
+
 /* Newton for w = (s, p) with G(w; eta) = P.  aux is the guess in, the
- * solution out.  Once the relative step is below 1e-10 (quadratic
- * convergence: the next is at round-off) the iteration runs until the step
- * no longer halves or is below 1e-15, and stops at that point: the round-off
- * floor of p_par, which P_phi - q psi determines with a cancellation of
- * ~|q psi| / (p R), is reached without a fixed tolerance that the floor
- * could exceed.  The point is evaluated where it stops.  s is kept above 0
- * (the axis, where J = 0). */
+ * solution out.  Quadratic convergence: once the relative step e is below
+ * 1e-10 the next is at round-off; the iteration stops at the first step
+ * below 1e-15 (nothing left to take) or, below 1e-10, at the first that no
+ * longer halves (the round-off floor of p_par, which P_phi - q psi
+ * determines with a cancellation of ~|q psi| / (p R): ~1e-12 in DIII-D),
+ * without taking it, and returns the evaluation in hand (that point's): no
+ * fixed tolerance that the floor could exceed, and no evaluation of a point
+ * that differs from the last by round-off (H's derivatives there are off by
+ * that round-off).  With xlin (from_canon: only the position and p_par are
+ * wanted, and P_phi(X, p_par) must be P_phi(z) to round-off), a step below
+ * 1e-11, the last ones included, is taken and the point
+ * moved along the chart's dX/ds instead of evaluated again: the step leaves
+ * an error ~e^2 < 1e-22, and the linear move one of ~e^2 too.  Not at 1e-8:
+ * the ~1e-16 those leave is systematic (the curvature of the line), and
+ * gcp_gc_push re-enters the canonical state from (X, p_par) every 256 steps,
+ * so P_phi drifted linearly (2.1e-12 over 1e7 steps of gc-gl4 in the
+ * tokamak, 10x its 1e6 figure), as it did when the last step below 1e-15
+ * was not taken.  s is kept above 0 (the axis, where J = 0). */
 static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
-                      const double z[4], double aux[2], struct fpoint *o)
+                      const double z[4], double aux[2], struct fpoint *o, int xlin)
 {
     double s = aux[0], p = aux[1];
     if (!(isfinite(s) && isfinite(p) && isfinite(z[1] + z[2] + z[3]))) return GCP_STEP_FAILED;
     const double sscale = c->pc.s_max;
     double eprev = INFINITY;
-    int done = 0;
     for (int it = 0; it < 60; it++) {
         const int st = fpoint_eval(c, k, s, z[1], p, o);
-        if (done) {
-            aux[0] = s, aux[1] = p;
-            return st;
-        }
         const double r0 = o->P[0] - z[2], r1 = o->P[1] - z[3];
         const double det = o->Gw[0][0] * o->Gw[1][1] - o->Gw[0][1] * o->Gw[1][0];
         if (!(det != 0.0) || !isfinite(det)) return GCP_STEP_FAILED;
         const double ds = -(o->Gw[1][1] * r0 - o->Gw[0][1] * r1) / det;
         const double dp = -(-o->Gw[1][0] * r0 + o->Gw[0][0] * r1) / det;
         const double e = fmax(fabs(ds) / sscale, fabs(dp) / o->pscale);
-        if (eprev < 1e-10 && (e > 0.5 * eprev || e < 1e-15)) {
-            /* at the floor: this step is noise (or nothing); take it only
-             * when it is still a real improvement */
-            if (e < 1e-15) s += ds, p += dp;
-            done = 1;
-            continue;
+        if (xlin && e < 1e-11 && !st) {
+            aux[0] = s + ds, aux[1] = p + dp;
+            o->g.R += o->g.R_s * ds, o->g.Z += o->g.Z_s * ds;
+            return aux[0] > 0.0 ? 0 : GCP_STEP_FAILED;
+        }
+        if (e < 1e-15 || (eprev < 1e-10 && e > 0.5 * eprev)) {
+            aux[0] = s, aux[1] = p;
+            return st;
         }
         double sn = s + ds;
         if (!(sn > 0.0)) sn = 0.5 * s; /* never through the axis */
@@ -188,10 +238,10 @@ static int flux_from_canon(const struct gcp_canon_chart *cc, const struct gcp_gc
 {
     const struct gcp_flux_chart *c = cc->data;
     struct fpoint o;
-    const int st = flux_solve(c, k, z, aux, &o);
-    X[0] = o.R * cos(z[0]);
-    X[1] = o.R * sin(z[0]);
-    X[2] = o.Z;
+    const int st = flux_solve(c, k, z, aux, &o, 1);
+    X[0] = o.g.R * cos(z[0]);
+    X[1] = o.g.R * sin(z[0]);
+    X[2] = o.g.Z;
     *ppar = aux[1];
     return st;
 }
@@ -201,17 +251,10 @@ static int flux_hamiltonian(const struct gcp_canon_chart *cc, const struct gcp_g
 {
     const struct gcp_flux_chart *c = cc->data;
     struct fpoint o;
-    const int st = flux_solve(c, k, z, aux, &o);
+    const int st = flux_solve(c, k, z, aux, &o, 0);
     if (st) return st;
-    /* (dG/dw)^T lambda = dH/dw */
-    const double det = o.Gw[0][0] * o.Gw[1][1] - o.Gw[0][1] * o.Gw[1][0];
-    const double l0 = (o.Gw[1][1] * o.Hw[0] - o.Gw[1][0] * o.Hw[1]) / det;
-    const double l1 = (-o.Gw[0][1] * o.Hw[0] + o.Gw[0][0] * o.Hw[1]) / det;
     *H = o.H;
-    dH[0] = 0.0;
-    dH[1] = o.He - l0 * o.Ge[0] - l1 * o.Ge[1];
-    dH[2] = l0;
-    dH[3] = l1;
+    fpoint_dH(&o, dH);
     return 0;
 }
 
@@ -222,13 +265,13 @@ static int flux_field_strength(const struct gcp_canon_chart *cc, const struct gc
 {
     const struct gcp_flux_chart *c = cc->data;
     struct fpoint o;
-    const int st = flux_solve(c, k, z, aux, &o);
+    const int st = flux_solve(c, k, z, aux, &o, 0);
     if (st) return st;
     const double det = o.Gw[0][0] * o.Gw[1][1] - o.Gw[0][1] * o.Gw[1][0];
-    const double l0 = o.Gw[1][1] * o.Bw0 / det, l1 = -o.Gw[0][1] * o.Bw0 / det;
-    *Bm = o.Bm;
+    const double l0 = o.Gw[1][1] * o.g.dBs / det, l1 = -o.Gw[0][1] * o.g.dBs / det;
+    *Bm = o.g.Bm;
     dBm[0] = 0.0;
-    dBm[1] = o.Be - l0 * o.Ge[0] - l1 * o.Ge[1];
+    dBm[1] = o.g.dBe - l0 * o.Ge[0] - l1 * o.Ge[1];
     dBm[2] = l0;
     dBm[3] = l1;
     return 0;
@@ -239,8 +282,41 @@ int gcp_flux_chart_hs(const struct gcp_canon_chart *cc, const struct gcp_gc_cons
 {
     struct fpoint o;
     const int st = fpoint_eval(cc->data, k, s, eta, ppar, &o);
-    *h_s = o.h_s;
+    *h_s = o.g.h_res;
     return st;
+}
+
+/* The forward evaluation at (eta, w = (s, p_par)) for the solver of
+ * gc_gauss_wlift.c (canon_priv.h wlift_eval): P = G(w; eta), dG/dw,
+ * dG/deta, H and dH/dz as in flux_hamiltonian, from one map and one field
+ * evaluation, or none when `same` holds the geometry at (eta, s). */
+_Static_assert(sizeof(struct fgeom) <= sizeof(((struct gcp_canon_wpoint *)0)->own),
+               "gcp_canon_wpoint.own holds a struct fgeom");
+
+static int flux_wlift_eval(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                           double eta, const double w[2], const struct gcp_canon_wpoint *same,
+                           struct gcp_canon_wpoint *out)
+{
+    const struct gcp_flux_chart *c = cc->data;
+    if (!(w[0] > 0.0) || !isfinite(w[1]) || !isfinite(eta)) return GCP_STEP_FAILED;
+    struct fpoint o;
+    if (same) {
+        memcpy(&o.g, same->own, sizeof o.g);
+    } else {
+        const int st = fgeom_eval(c, w[0], eta, &o.g);
+        if (st) return st;
+        memcpy(out->own, &o.g, sizeof o.g);
+    }
+    fpoint_at(k, w[1], &o);
+    if (same) memcpy(out->own, same->own, sizeof o.g);
+    memcpy(out->P, o.P, sizeof o.P);
+    memcpy(out->Pw, o.Gw, sizeof o.Gw);
+    memcpy(out->Pe, o.Ge, sizeof o.Ge);
+    out->H = o.H;
+    fpoint_dH(&o, out->dH);
+    out->wscale[0] = c->pc.s_max;
+    out->wscale[1] = o.pscale;
+    return isfinite(out->H + out->dH[1] + out->dH[2] + out->dH[3]) ? 0 : GCP_NONFINITE;
 }
 
 static void flux_destroy(void *data)
@@ -284,5 +360,6 @@ int gcp_canon_chart_flux_create(const struct gcp_field *f, struct gcp_canon_char
     out->hamiltonian = flux_hamiltonian;
     out->destroy = flux_destroy;
     out->field_strength = flux_field_strength;
+    out->wlift_eval = flux_wlift_eval;
     return 0;
 }

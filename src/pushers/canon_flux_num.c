@@ -5,17 +5,21 @@
  *
  *   rho = sqrt(psi_N),  psi_N = (psi - psi_axis) / (psi_edge - psi_axis),
  * so R(rho, eta) = R_axis + rho c(eta) + O(rho^2) is smooth at the axis.
- * eta labels the gradient lines of psi by the geometric angle about the
- * axis at which they cross the reference surface rho_ref.  Each line is
- * traced from there, in and out, with GSL rk8pd at 1e-13:
+ * eta labels the gradient lines of psi by the toroidal flux between them
+ * and the outboard line inside the reference surface rho_ref (flux_labels:
+ * A_eta is then the same on that whole surface), found from the lines at
+ * the geometric angles about the axis (a first, inward pass).  Each line is
+ * traced from the reference surface, in and out, with GSL rk8pd at 1e-13:
  *   dX/drho   = V(X) = 2 rho Dpsi grad psi / |grad psi|^2      (psi_N = rho^2),
  *   dX_e/drho = DV(X) X_e,  DV = 2 rho Dpsi (H/|g|^2 - 2 g (H g)^T/|g|^4)
  *               (the tangent equation: X_e = dX/deta, g = grad psi, H its
  *               Hessian; X_e stays tangent to the flux surface),
  *   dA/drho   = (Z_rho R_eta - R_rho Z_eta) B_phi(X)   (= J B^phi, gauge A_rho = 0),
  * starting from X_e on the reference surface (psi(X(eta)) = const:
- * X = X_axis + t(eta) e(eta), t' = -t (g.e')/(g.e)), with A = 0 on the axis
- * (the remaining gauge freedom A_eta + f(eta) fixed by regularity there).
+ * X = X_axis + t(g) e(g), t' = -t (g.e')/(g.e) at the geometric angle g,
+ * times dg/deta), with A = 0 on the axis (the remaining gauge freedom
+ * A_eta + f(eta) fixed by regularity there; the piece node 1 .. axis in
+ * closed form, inner_A).
  * R, Z, A on a uniform (rho, eta) grid, periodic in eta (padded by NPAD
  * nodes each side: the end conditions of the quintic B-spline decay like
  * 0.43^k into the table, 0.43^40 ~ 2e-15) are interpolated by the C4
@@ -240,13 +244,133 @@ static int ref_point(const struct numchart *n, double pn, double eta, double y[5
     return 0;
 }
 
+/* The gauge of A_eta: A = 0 on the axis (A_eta deta must vanish there for
+ * the one-form to be regular at the chart's pole), i.e.
+ *   A(rho, eta) = int_0^rho J B^phi drho',  J = Z_rho R_eta - R_rho Z_eta,
+ * along the gradient line eta.  The tracing reaches node 1 (rho = drho);
+ * the piece from there to the axis is not a polynomial in rho at an
+ * elongated axis: there psi - psi_a = (l1 x^2 + l2 y^2)/2 in the Hessian's
+ * eigen-axes (x, y), the gradient lines are the power curves y = C x^n,
+ * n = l2/l1 (tangent to one axis at the pole, turning at a rho that goes to 0
+ * as the line nears the other axis), and a quadratic extrapolation of A
+ * through nodes 1, 2, 3 (as before) errs by an amount that varies with
+ * eta on the scale of that turn: a ~0.25 rad wiggle in eta of A_eta at every
+ * rho in DIII-D, which Gauss-Legendre methods (not invariant under the
+ * gauge map P_eta -> P_eta + q f(eta)) turn into an energy drift
+ * (tests/unit/test_gc_symplectic_flux.c).  In the quadratic model the piece
+ * has a closed form in the line's point (x, y) and tangent (x_e, y_e) at
+ * node 1: with alpha = (x dy - y dx)/2 (d alpha = dx ^ dy), the integrand
+ * is -(d alpha)_(rho eta), so by Stokes on the strip between the pole and
+ * rho, int_0^rho J drho' = -alpha_eta + d/deta int_line alpha, and along
+ * y = C x^n, x dy - y dx = (n - 1) y dx integrates to
+ * ((n - 1)/(n + 1)) x y: hence
+ *   int_0^rho J drho' = (n y x_e - x y_e) / (n + 1),
+ * (n = 1, rays: -r^2/2), times B_phi on the axis.  A smooth function of the
+ * line's data at node 1, exact for a quadratic psi and constant B_phi; the
+ * error is O(drho^3) (cubic terms of psi, B_phi's gradient), smooth in eta. */
+struct axis_model {
+    double Ra, Za, c, s; /* the axis and the eigen-axis x = (c, s), y = (-s, c) */
+    double n;            /* l2 / l1 */
+    double Bphi;         /* [T] B_phi on the axis */
+};
+
+static void axis_model(const struct gcp_field *f, double Ra, double Za, struct axis_model *m)
+{
+    double p[6];
+    gcp_field_psi_RZ(f, Ra, Za, p);
+    const double a = p[3], b = p[4], c = p[5];
+    const double th = 0.5 * atan2(2.0 * b, a - c); /* x along the eigenvalue l1 */
+    const double mid = 0.5 * (a + c), rad = hypot(0.5 * (a - c), b);
+    m->Ra = Ra, m->Za = Za, m->c = cos(th), m->s = sin(th);
+    m->n = (mid - rad) / (mid + rad); /* l2 / l1 (same sign at an extremum) */
+    const double X[3] = {Ra, 0.0, Za};
+    struct gcp_field_sample fs = {.need = GCP_NEED_B};
+    gcp_field_eval(f, 0.0, X, &fs);
+    m->Bphi = fs.B[1];
+}
+
+/* int_0^rho J drho' of the quadratic model at the line's point and tangent
+ * y = (R, Z, R_e, Z_e, ...). */
+static double inner_A(const struct axis_model *m, const double y[5])
+{
+    const double dR = y[0] - m->Ra, dZ = y[1] - m->Za;
+    const double x = m->c * dR + m->s * dZ, yy = -m->s * dR + m->c * dZ;
+    const double xe = m->c * y[2] + m->s * y[3], ye = -m->s * y[2] + m->c * y[3];
+    return (m->n * yy * xe - x * ye) / (m->n + 1.0);
+}
+
+/* The labels of the gradient lines.  eta labels each line by the toroidal
+ * flux between it and the line through the outboard point of the reference
+ * surface (geometric angle 0 about the axis), inside that surface:
+ *   eta(g) = 2 pi Phi(g) / Phi_tot,  Phi(g) = int_0^g A_ref(g') dg',
+ * g the geometric angle at which the line crosses the reference surface and
+ * A_ref(g) = A_eta there in the labels g (gauge A = 0 on the axis: the
+ * toroidal flux per unit g of the wedge between the axis, the line and the
+ * surface).  In these labels A_eta = Phi_tot / 2 pi on the reference surface,
+ * the same for every line, and near it A_eta varies with eta only as the
+ * flux between neighbouring lines changes along them: the gauge A(0, eta) = 0
+ * that the pole needs is kept, and P_eta = q A_eta + p_par h_eta has no
+ * eta-dependence of q A_eta to follow that the labels put there.  With the
+ * geometric angle as label (as before) q A_eta varied by ~40% along the
+ * reference surface in DIII-D, with harmonics up to m ~ 30, which a
+ * Gauss-Legendre method at 25 steps per bounce follows with an energy error
+ * of 1e-3 that drifts (the method is not invariant under relabellings or
+ * gauge changes, only the exact flow is).
+ * A_ref at the NETA angles g_j (pass 1 of table_build) gives Phi by its
+ * Fourier series (exact for the trigonometric interpolant), and the labels'
+ * nodes eta_j = -pi + j deta are mapped back to g_j by Newton.  Out:
+ * eg[j] = g_j and eg[NETA + j] = dg/deta there = Phi_tot / (2 pi A_ref(g_j))
+ * (the tangent dX/deta = dX/dg dg/deta of the line).  0, or GCP_STEP_FAILED
+ * where A_ref changes sign (B_phi must keep one). */
+static int flux_labels(const double *Aref, double *eg)
+{
+    const int M = NETA / 2;
+    double *ca = malloc(2 * (size_t)M * sizeof *ca), *sa = ca ? ca + M : NULL;
+    if (!ca) return GCP_ERR_NOMEM;
+    double c0 = 0.0;
+    for (int j = 0; j < NETA; j++) c0 += Aref[j] / NETA;
+    for (int m = 1; m < M; m++) {
+        double a = 0.0, b = 0.0;
+        for (int j = 0; j < NETA; j++) {
+            const double g = -GCP_PI + 2.0 * GCP_PI * j / NETA;
+            a += Aref[j] * cos(m * g), b += Aref[j] * sin(m * g);
+        }
+        ca[m] = 2.0 * a / NETA, sa[m] = 2.0 * b / NETA;
+    }
+    int rc = 0;
+    for (int j = 0; j < NETA && !rc; j++) {
+        /* eta(g) = g + sum (a_m sin mg - b_m (cos mg - 1)) / (m c0) */
+        const double et = -GCP_PI + 2.0 * GCP_PI * j / NETA;
+        double g = et, dg = 1.0;
+        for (int it = 0; it < 50; it++) {
+            double e = g, de = 1.0;
+            for (int m = 1; m < M; m++) {
+                const double cm = cos(m * g), sm = sin(m * g);
+                e += (ca[m] * sm - sa[m] * (cm - 1.0)) / (m * c0);
+                de += (ca[m] * cm + sa[m] * sm) / c0;
+            }
+            if (!(de > 0.0)) {
+                rc = GCP_STEP_FAILED;
+                break;
+            }
+            const double step = (e - et) / de;
+            g -= step;
+            dg = 1.0 / de;
+            if (fabs(step) < 1e-15) break;
+        }
+        eg[j] = g, eg[NETA + j] = dg;
+    }
+    free(ca);
+    return rc;
+}
+
 /* Builds the table of f (axis guess Ra, Za; boundary flux pe).  0, or
  * GCP_ERR_STATE / GCP_ERR_NOMEM with why filled. */
 static int table_build(const struct gcp_field *f, double Ra, double Za, double pe,
                        struct numchart **out, char *why, size_t whylen)
 {
     struct numchart *n = calloc(1, sizeof *n);
-    double *tab = malloc(3 * NRHO * (NETA + 2 * NPAD) * sizeof *tab);
+    double *tab = malloc((3 * NRHO + 1) * (NETA + 2 * NPAD) * sizeof *tab);
     if (!n || !tab) {
         free(n), free(tab);
         snprintf(why, whylen, "out of memory");
@@ -264,7 +388,9 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
     n->rho_max = sqrt(PSIN_MAX);
     const double drho = n->rho_max / (NRHO - 1), deta = 2.0 * GCP_PI / NETA;
     const size_t ne = NETA + 2 * NPAD, nn = (size_t)NRHO * ne;
-    double *TR = tab, *TZ = tab + nn, *TA = tab + 2 * nn;
+    double *TR = tab, *TZ = tab + nn, *TA = tab + 2 * nn, *TI = tab + 3 * nn;
+    struct axis_model ax;
+    axis_model(f, Ra, Za, &ax);
     struct trace_ctx tc = {.f = f, .dpsi = n->dpsi, .status = 0};
     gsl_odeiv2_system sys = {trace_rhs, NULL, 5, &tc};
     gsl_odeiv2_driver *d =
@@ -272,30 +398,44 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
     const double rho_ref = RHO_REF * n->rho_max;
     int rc = d ? 0 : GCP_ERR_NOMEM;
     gsl_error_handler_t *old_handler = gsl_set_error_handler_off();
-    for (int j = 0; j < NETA && !rc; j++) {
-        const double eta = -GCP_PI + j * deta;
-        double y0[5];
-        if ((rc = ref_point(n, rho_ref * rho_ref, eta, y0))) break;
-        for (int dir = -1; dir <= 1 && !rc; dir += 2) {
-            double y[5], rho = rho_ref;
-            memcpy(y, y0, sizeof y);
-            gsl_odeiv2_driver_reset_hstart(d, dir * 1e-3 * drho);
-            /* inward: nodes floor(ref) .. 1 (node 0 is the axis); outward: the rest */
-            const int i0 = dir < 0 ? (int)floor(rho_ref / drho) : (int)floor(rho_ref / drho) + 1;
-            for (int i = i0; dir < 0 ? i >= 1 : i < NRHO; i += dir) {
-                if (gsl_odeiv2_driver_apply(d, &rho, i * drho, y) != GSL_SUCCESS) {
-                    rc = tc.status ? tc.status : GCP_STEP_FAILED;
-                    break;
-                }
-                for (int pk = -1; pk <= 1; pk++) { /* the node and its periodic copies */
-                    const int jj = j + NPAD + pk * NETA;
-                    if (jj < 0 || jj >= (int)ne) continue;
-                    const size_t at = (size_t)i + (size_t)NRHO * (size_t)jj;
-                    TR[at] = y[0], TZ[at] = y[1], TA[at] = y[4];
+    /* pass 1: the lines at the geometric angles, inward only: A on the
+     * reference surface (flux_labels); pass 2: the lines at the labels of
+     * equal toroidal flux, the table */
+    double *Aref = malloc(NETA * sizeof *Aref), *eg = malloc(2 * NETA * sizeof *eg);
+    if (!Aref || !eg) rc = GCP_ERR_NOMEM;
+    for (int pass = 0; pass < 2 && !rc; pass++) {
+        for (int j = 0; j < NETA && !rc; j++) {
+            double y0[5];
+            if ((rc = ref_point(n, rho_ref * rho_ref, pass ? eg[j] : -GCP_PI + j * deta, y0)))
+                break;
+            if (pass) y0[2] *= eg[NETA + j], y0[3] *= eg[NETA + j];
+            for (int dir = -1; dir <= pass && !rc; dir += 2) {
+                double y[5], rho = rho_ref;
+                memcpy(y, y0, sizeof y);
+                gsl_odeiv2_driver_reset_hstart(d, dir * 1e-3 * drho);
+                /* inward: nodes floor(ref) .. 1 (node 0 is the axis); outward: the rest */
+                const int i0 =
+                    dir < 0 ? (int)floor(rho_ref / drho) : (int)floor(rho_ref / drho) + 1;
+                for (int i = i0; dir < 0 ? i >= 1 : i < NRHO; i += dir) {
+                    if (gsl_odeiv2_driver_apply(d, &rho, i * drho, y) != GSL_SUCCESS) {
+                        rc = tc.status ? tc.status : GCP_STEP_FAILED;
+                        break;
+                    }
+                    /* A(rho_ref) - A(0) = -(A(node 1) - inner) */
+                    if (!pass && i == 1) Aref[j] = ax.Bphi * inner_A(&ax, y) - y[4];
+                    for (int pk = -1; pk <= 1 && pass; pk++) { /* the node, periodic copies */
+                        const int jj = j + NPAD + pk * NETA;
+                        if (jj < 0 || jj >= (int)ne) continue;
+                        const size_t at = (size_t)i + (size_t)NRHO * (size_t)jj;
+                        TR[at] = y[0], TZ[at] = y[1], TA[at] = y[4];
+                        if (i == 1) TI[jj] = ax.Bphi * inner_A(&ax, y); /* node 1 .. axis */
+                    }
                 }
             }
         }
+        if (!pass && !rc) rc = flux_labels(Aref, eg);
     }
+    free(Aref), free(eg);
     if (d) gsl_odeiv2_driver_free(d);
     gsl_set_error_handler(old_handler);
     if (rc) {
@@ -305,18 +445,14 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
         free(n), free(tab);
         return GCP_ERR_STATE;
     }
-    /* The axis row, and A = 0 there.  A was integrated from the reference
-     * surface; A(0, eta) is the quadratic through nodes 1, 2, 3 extrapolated
-     * to rho = 0 (A = O(rho^2) there).  Its error adds a gauge term
-     * f(eta) deta: no effect on the exact motion, but not smooth near an
-     * elongated axis (in DIII-D a ~0.25 rad wiggle in eta, in A_eta at every
-     * rho), and a Gauss-Legendre method is not invariant under P_eta ->
-     * P_eta + q f(eta): it is why gc-gl2/gl4's energy is not bounded there
-     * (tests/unit/test_gc_symplectic_flux.c, eqdsk_long_run_energy_bounded). */
+    /* The axis row, and A = 0 there: A was integrated from the reference
+     * surface down to node 1; the rest, node 1 .. the axis, is the axis
+     * model's inner_A (a smooth function of the line's point and tangent at
+     * node 1), so A(0, eta) = A(node 1) - inner. */
     for (size_t jj = 0; jj < ne; jj++) {
         double *r = TR + NRHO * jj, *z = TZ + NRHO * jj, *a = TA + NRHO * jj;
         r[0] = Ra, z[0] = Za;
-        const double a0 = 3.0 * a[1] - 3.0 * a[2] + a[3];
+        const double a0 = a[1] - TI[jj];
         for (int i = 1; i < NRHO; i++) a[i] -= a0;
         a[0] = 0.0;
     }
@@ -338,9 +474,10 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
 }
 
 /* ---- one table per equilibrium ----------------------------------------------
- * Building a table takes ~1 s (NETA x NRHO rk8pd steps of 13 evaluations of
- * psi and B); a chart is created wherever a method needs one (every
- * advance of a block, the scene's check).  So the tables are cached, one
+ * Building a table takes ~1 s CPU (an inward pass for the labels, then
+ * NETA x NRHO rk8pd steps of 13 evaluations of psi and B); a chart is
+ * created wherever a method needs one (every advance of a block, the
+ * scene's check).  So the tables are cached, one
  * entry, keyed by a fingerprint of the field: its type, the flux-surface
  * data, and psi with its derivatives and B at 8 points about the axis,
  * compared bit for bit.  Two fields with the same fingerprint are the same

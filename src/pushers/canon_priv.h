@@ -55,6 +55,17 @@ struct gcp_canon_lift {
     double dp[2][2];    /* dp_r / d(P_phi, eta)_c at p: a change of P_phi, eta -> of p */
 };
 
+/* What wlift_eval gives at a point of the chart's own non-canonical
+ * coordinates (eta, w), w the aux layout (the flux chart: w = (s, p_par)). */
+struct gcp_canon_wpoint {
+    double P[2];       /* (P_phi, P_eta) of the point */
+    double Pw[2][2];   /* d(P_phi, P_eta)/dw */
+    double Pe[2];      /* d(P_phi, P_eta)/deta at fixed w */
+    double H, dH[4];   /* [J] H and dH/dz at the point's z */
+    double wscale[2];  /* scales of w (the solver's convergence test) */
+    double own[20];    /* the chart's own numbers at the point, for a reuse (see wlift_eval) */
+};
+
 /* lift_eval over a block of points, struct of arrays (n entries each). */
 struct gcp_canon_lift_soa {
     double *Pphi, *eta, *H, *dH1, *dH2, *dH3, *Bm, *dBm1, *dBm2;
@@ -95,6 +106,15 @@ struct gcp_canon_chart {
      * o alone (no field evaluation).  0 or a status. */
     int (*lift_ham)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
                     const struct gcp_canon_lift *o, double Peta, double *H, double dH[4]);
+    /* Optional (without lift_eval): everything at the chart's own point
+     * (eta, w) forward, no inversion -- the canonical momenta the point has,
+     * their derivatives in (w, eta), H and dH/dz there -- for the collocation
+     * solver of gc_gauss_wlift.c, which solves for the stage points w too.
+     * same: NULL, or an evaluation at the same eta and w[0] whose geometry
+     * the chart may reuse (only w[1] differs).  0 or a status. */
+    int (*wlift_eval)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k, double eta,
+                      const double w[2], const struct gcp_canon_wpoint *same,
+                      struct gcp_canon_wpoint *out);
     /* Optional (with lift_eval): lift_eval at n points (R[j], Z[j]) with
      * P_eta Peta[j] and magnetic moment mu[j] (q, m of k), the same numbers
      * point by point; status[j] 0 or lift_eval's status.  The block solver

@@ -74,6 +74,7 @@
  * start of the step.  Where the chart also has lift_eval_block (the
  * curl-free chart), the same solve runs over the lanes of a block together,
  * vectorised (gc_gauss_block.c); gl_step_lift is then the per-lane form.
+ * The flux charts' lifted solve (stage points in (eta, s, p_par)): gc_gauss_wlift.c.
  *
  * State.  The canonical z of each lane is kept between the steps of one
  * advance, so that the map applied is exactly the symplectic map; X, p_par
@@ -340,7 +341,6 @@ static void gl_finish(const struct gl_tableau *T, struct gl_lane *L, double h,
     gl_lane_accept(L, z, t, K);
 }
 
-/* One step through the chart's inversion (charts without lift_eval). */
 /* Why a step failed (enum gcp_step_failure, issue 11): kept in the lane for
  * the caller, which restores the rest of the lane and reports it with
  * gcp_lane_fail. */
@@ -350,6 +350,7 @@ static int gl_fail(struct gl_lane *L, int why)
     return GCP_STEP_FAILED;
 }
 
+/* One step through the chart's inversion (charts without lift_eval). */
 static int gl_step_invert(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                           struct gl_lane *L, double h)
 {
@@ -588,15 +589,15 @@ static int gl_step_lift(const struct gl_ctx *C, const struct gcp_gc_consts *k, s
     return GCP_STEP_FAILED;
 }
 
-/* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged).
- * The lifted solver where the chart has lift_eval, the inverting one where
- * it has not or where the lifted one fails (a guess too far off). */
+/* One Gauss-Legendre step of lane L; 0 or GCP_STEP_FAILED (L unchanged): a
+ * lifted solver where the chart has one, else or where it fails the inverting one. */
 static int gl_step_canon(const struct gl_ctx *C, const struct gcp_gc_consts *k,
                          struct gl_lane *L, double h, int lift)
 {
-    if (lift && C->chart.lift_eval && C->sundman_a == 0.0) {
-        /* gl_step_lift changes only the Jacobian fields of L until it succeeds */
-        if (gl_step_lift(C, k, L, h) == 0) return 0;
+    if (lift && (C->chart.lift_eval || C->chart.wlift_eval) && C->sundman_a == 0.0) {
+        /* either changes only the Jacobian fields of L until it succeeds */
+        const int r = C->chart.lift_eval ? gl_step_lift(C, k, L, h) : gcp_gl_step_wlift(C, k, L, h);
+        if (r == 0) return 0;
         L->have_J = 0;
     }
     const int r = gl_step_invert(C, k, L, h);

@@ -186,6 +186,12 @@ void gcp_gl_lift_end(const struct gl_ctx *C, struct gl_lane *L, double h,
                      const double K[GL_SMAX][2], const double z[4], double t,
                      const double p[GL_SMAX][2], const double t1[GL_SMAX][2],
                      const double t2[GL_SMAX][2], const double pe[2]);
+/* One step of lane L by the solver of gc_gauss_wlift.c (charts with
+ * wlift_eval, plain time steps): 0, or GCP_STEP_FAILED with only the
+ * Jacobian fields of L changed (the caller falls back on the inverting
+ * solver). */
+int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
+                      double h);
 /* The lifted solve over the n live lanes of b at once (gc_gauss_block.c;
  * gcp_gc_lane_ops.step_block), the per-lane path for lanes it fails. */
 int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double t, double h,

@@ -35,6 +35,9 @@ struct psys {
     double X[3], ppar;
     double Tb; /* [s] bounce period */
     int N;     /* gc-gl4 steps per bounce of the order check (N, 2N) */
+    /* the tabulated (C4) flux chart: the order check over N, 4N, asserted
+     * at least third order (test_gc_symplectic_flux.c, order_check) */
+    int tabulated;
     /* the wrong dynamics with an exact P_phi: gc-midpoint-pphi at 10 steps
      * per bounce, or gc-gl2 at 25 where gc-midpoint-pphi has no vector
      * potential (EQDSK; gc-gl2's Newton fails at 10 there) */
@@ -101,7 +104,8 @@ static void sys_eqdsk(struct psys *s)
     s->name = "DIII-D p+ 50 keV";
     struct gcp_error err = {0};
     cr_assert_eq(gcp_field_eqdsk_load(GFILE, 0, &s->f, &err), 0, "%s", err.msg);
-    set_tokamak_like(s, 5e4 * GCP_E_CHARGE, 0.3, 2.0128, -0.0256, 200);
+    set_tokamak_like(s, 5e4 * GCP_E_CHARGE, 0.3, 2.0128, -0.0256, 50);
+    s->tabulated = 1;
     s->wrong = &gcp_pusher_gc_gl2, s->wrongN = 25;
 }
 
@@ -154,8 +158,12 @@ static double dist(const double a[3], const double b[3])
  *   gc-gl4, gc-midpoint-pphi: P_phi exact up to the round-off of q psi and
  *   of the chart's Newton, ~1e-16 per step over <= 400 steps: bound 1e-13.
  *   gc-gl4 against gc-rk8pd: the position error after one bounce at h and
- *   h/2 has the ratio 2^4 within 10% (measured 16.02, 15.99, 15.79 at N =
- *   100, 100, 200); and P_phi of the two agree to the reference's bound
+ *   h/2 has the ratio 2^4 within 10% (measured 16.02, 15.99 at N = 100 in
+ *   the dipole and the tokamak); in DIII-D, whose tabulated chart and psi
+ *   are C4 splines (F only C2: no clean fourth-order ratio once the error
+ *   is below ~1e-8 m, see test_gc_symplectic_flux.c), at h and h/4 from
+ *   N = 50, at least third order: ratio >= 0.9 x 2^6 (measured 316);
+ *   and P_phi of the two agree to the reference's bound
  *   (measured 2.3e-15, 2.8e-13, 1.7e-13: gc-rk8pd's own drift).
  *   The wrong dynamics: the same P_phi (measured <= 1.7e-15), while its
  *   state is off by more than 100x gc-gl4's error at N steps per bounce
@@ -170,7 +178,7 @@ static void pphi_check(struct psys *S, double rk8_bound)
     cr_expect_lt(dPr, rk8_bound, "%s gc-rk8pd: P_phi deviation %.2e", S->name, dPr);
     double e[2], X[3], pp, dP, P1;
     for (int k = 0; k < 2; k++) {
-        const int n = S->N << k;
+        const int n = S->N << (S->tabulated ? 2 * k : k);
         one_bounce(S, &gcp_pusher_gc_gl4, n, X, &pp, &dP, &P1);
         e[k] = dist(X, Xr);
         const double agree = fabs(P1 - Pr) / fabs(P0);
@@ -182,8 +190,14 @@ static void pphi_check(struct psys *S, double rk8_bound)
                      S->name, n, agree);
     }
     const double ratio = e[0] / e[1];
-    cr_log_info("%-18s gc-gl4 error ratio %.2f (want 16)", S->name, ratio);
-    cr_expect(fabs(ratio / 16 - 1) < 0.1, "%s gc-gl4: error ratio %.2f, want 16", S->name, ratio);
+    cr_log_info("%-18s gc-gl4 error ratio %.2f (want %s)", S->name, ratio,
+                S->tabulated ? ">= 0.9 x 64 over two halvings" : "16");
+    if (S->tabulated)
+        cr_expect(ratio > 0.9 * 64.0, "%s gc-gl4: error ratio %.2f over two halvings", S->name,
+                  ratio);
+    else
+        cr_expect(fabs(ratio / 16 - 1) < 0.1, "%s gc-gl4: error ratio %.2f, want 16", S->name,
+                  ratio);
     /* the wrong dynamics with the same exact P_phi */
     one_bounce(S, S->wrong, S->wrongN, X, &pp, &dP, &P1);
     const double em = dist(X, Xr);
@@ -197,7 +211,7 @@ static void pphi_check(struct psys *S, double rk8_bound)
 
 Test(gc_pphi_accuracy, dipole_against_rk8pd, .timeout = 60)
 {
-    struct psys S;
+    struct psys S = {0};
     sys_dipole(&S);
     pphi_check(&S, 2e-12);
     gcp_field_free(S.f);
@@ -205,7 +219,7 @@ Test(gc_pphi_accuracy, dipole_against_rk8pd, .timeout = 60)
 
 Test(gc_pphi_accuracy, tokamak_against_rk8pd, .timeout = 60)
 {
-    struct psys S;
+    struct psys S = {0};
     sys_tokamak(&S);
     pphi_check(&S, 2e-12);
     gcp_field_free(S.f);
@@ -213,7 +227,7 @@ Test(gc_pphi_accuracy, tokamak_against_rk8pd, .timeout = 60)
 
 Test(gc_pphi_accuracy, eqdsk_against_rk8pd, .timeout = 60)
 {
-    struct psys S;
+    struct psys S = {0};
     sys_eqdsk(&S);
     pphi_check(&S, 2e-12);
     gcp_field_free(S.f);
