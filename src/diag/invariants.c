@@ -34,9 +34,13 @@
  * (the full-orbit gyro-average, the loss-cone classification),
  * invariants_samples.c (what particles that do not bounce get: cadence
  * samples, the stream's drift contour, the reasons a quantity is missing). */
+#define _DEFAULT_SOURCE /* madvise, MADV_HUGEPAGE (Linux): gcp_events_push */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 #include "gcpush/error.h"
 #include "gcpush/gc.h"
@@ -45,11 +49,33 @@
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
 
+/* Event storage of cap events, the first n copied from old (freed).  A run
+ * with invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
+ * half-bounce, a bounce row per bounce): tens of MB written once, where the
+ * first touch of each 4 KiB page is a page fault (~16 us each in a
+ * paravirtualised VM, measured: 0.33 s for 83 MB, a third of what the
+ * observer cost a gc-rk4 run).  From 2 MiB on, the storage is aligned to
+ * 2 MiB and offered to the kernel for transparent huge pages: one fault per
+ * 2 MiB.  The copy on growth is the one realloc would make. */
+static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t cap)
+{
+    const size_t huge = (size_t)2 << 20, bytes = (size_t)cap * sizeof *old;
+    if (bytes < huge) return realloc(old, bytes);
+    void *p = NULL;
+    if (posix_memalign(&p, huge, (bytes + huge - 1) / huge * huge)) return NULL;
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    (void)madvise(p, (bytes + huge - 1) / huge * huge, MADV_HUGEPAGE); /* a hint: failure is harmless */
+#endif
+    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    free(old);
+    return p;
+}
+
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
-        struct gcp_event *p = realloc(ev->e, (size_t)cap * sizeof *p);
+        struct gcp_event *p = events_grow(ev->e, ev->n, cap);
         if (!p) return GCP_ERR_NOMEM;
         ev->e = p;
         ev->cap = cap;
