@@ -142,15 +142,24 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
                     &g->acc[3], &g->acc[4], &g->acc[5], &g->prev[0], &g->prev[1], &g->prev[2],
                     &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
                     &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev,
-                    &o->Gb, &o->Gp2, &o->Gjd};
+                    &o->Gb, &o->Gp2, &o->Gjd,
+                    &o->hot.s1[0], &o->hot.s1[1], &o->hot.s1[2], &o->hot.s1[3],
+                    &o->hot.s1[4], &o->hot.s1[5], &o->hot.s1[6], &o->hot.s1[7],
+                    &o->hot.s0[0], &o->hot.s0[1], &o->hot.s0[2], &o->hot.s0[3],
+                    &o->hot.s0[4], &o->hot.s0[5], &o->hot.s0[6], &o->hot.s0[7],
+                    &o->hot.jd1, &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,
+                    &o->hot.cx, &o->hot.cy};
     const size_t nv = sizeof v / sizeof v[0];
     o->gmem = calloc(nv * n, sizeof(double));
-    o->gflags = calloc(4 * n, sizeof(int64_t));
+    o->gflags = calloc(9 * n, sizeof(int64_t));
     int fail = !o->gmem || !o->gflags;
     if (!fail) {
         for (size_t k = 0; k < nv; k++) *v[k] = o->gmem + k * n;
         g->init = o->gflags, g->left = o->gflags + n, o->special = o->gflags + 2 * n;
         o->active = o->gflags + 3 * n;
+        o->hot.have = o->gflags + 4 * n, o->hot.next = o->gflags + 5 * n;
+        o->hot.hprev = o->gflags + 6 * n, o->hot.az = o->gflags + 7 * n;
+        o->hot.slow = o->gflags + 8 * n;
     }
     if (fail || !o->lane || !o->Bx || !o->By || !o->Bz || !o->fst) {
         gcp_observer_free(o);
@@ -401,9 +410,8 @@ static void mirror(struct gcp_observer *o, struct lane *L, int64_t id, const str
     L->eq_has_prev = 0;
 }
 
-/* The next stream sample s of a lane, jd = jdot(o, s). */
-static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
-                          const struct gsample *s, double jd)
+void gcp_obs_stream_sample_jd(struct gcp_observer *o, struct lane *L, int64_t id,
+                              const struct gsample *s, double jd)
 {
     int first_of_half = !L->have_s1;
     if (L->have_s1) {
@@ -441,9 +449,8 @@ static void stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
 void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
                            const struct gsample *s)
 {
-    stream_sample(o, L, id, s, jdot(o, s));
+    gcp_obs_stream_sample_jd(o, L, id, s, jdot(o, s));
 }
-
 
 /* ---- losses ------------------------------------------------------------ */
 
@@ -515,12 +522,24 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
             Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
             Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
         }
-        for (size_t i = 0; i < n; i++) {
-            const size_t li = b->index[i];
-            if (li >= o->nlanes || !o->active[li]) continue;
-            const struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]},
-                                      .ppar = ppar[i], .mu = mu[i], .B = Gb[i], .p2 = Gp2[i]};
-            stream_sample(o, &o->lane[li], o->id0 + (int64_t)li, &s, Gjd[i]);
+        /* the quiet pass needs every live lane begun (always, after
+         * gcp_observer_begin), and no other source of stream samples */
+        int all = o->gc && !o->hybrid;
+        for (size_t i = 0; all && i < n; i++)
+            all = b->index[i] < o->nlanes && o->active[b->index[i]];
+        if (all) {
+            gcp_obs_stream_quiet(o, b, t, n);
+        } else {
+            for (size_t i = 0; i < n; i++) {
+                const size_t li = b->index[i];
+                if (li >= o->nlanes || !o->active[li]) continue;
+                const struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]},
+                                          .ppar = ppar[i], .mu = mu[i], .B = Gb[i], .p2 = Gp2[i]};
+                struct lane *L = &o->lane[li];
+                if (o->gc && !o->hybrid) gcp_obs_hot_to_lane(o, L, li);
+                gcp_obs_stream_sample_jd(o, L, o->id0 + (int64_t)li, &s, Gjd[i]);
+                if (o->gc && !o->hybrid) gcp_obs_lane_to_hot(o, L, li);
+            }
         }
     }
     for (size_t i = 0; i < n; i++) {
@@ -549,6 +568,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         o->active[li] = 1;
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
+        gcp_obs_lane_to_hot(o, L, li);
         o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
         o->tprev[li] = t0;
     }
