@@ -8,9 +8,11 @@
  * expressions of gcp_obs_stream_sample_jd (so the events are bit-identical
  * to sending every step through it); the lane's struct lane is brought up
  * to date before any other step goes through gcp_obs_stream_sample_jd, and
- * read back after it.  Measured (tests/bench/observer.sh, 2048 protons of
- * 1 MeV in the dipole): the observer's share of a gc-rk4 push fell from
- * ~1.0x to ~0.6x of the bare push, of gc-gl4 from ~0.2x to ~0.1x. */
+ * read back after it.  Measured (the scenes of tests/bench/observer.sh,
+ * 2048 protons of 1 MeV in the dipole, old and new binaries interleaved on a
+ * shared core, with the events storage of gcp_events_push): the observer's
+ * cost over the bare push fell from ~1.0x to 0.6-0.8x for gc-rk4 and from
+ * ~0.2x to 0.03-0.1x for gc-gl4. */
 #include <math.h>
 #include <stdint.h>
 
