@@ -49,7 +49,10 @@
  * through the gyro-average; events carry the mode in .status.
  *
  * Cost: nothing unless a run asks (the driver attaches no observer);
- * asked, per step one block field evaluation (GC) or two scalar ones (FO).
+ * asked, per step one block field evaluation (GC) or two (FO) and
+ * vectorised passes over the lanes' state; a GC lane's step that closes
+ * nothing (no mirror point, equator or cadence time) stays in the
+ * vectorised pass (tests/bench/observer.sh measures it).
  */
 #ifndef GCPUSH_INVARIANTS_H
 #define GCPUSH_INVARIANTS_H

@@ -95,6 +95,26 @@ struct gcp_observer {
     double *Vpp, *Vmu, *Vp2;  /* full orbit: p_par, mu, p^2 of that guiding centre */
     int64_t *special;         /* full orbit: the lanes a gyration starts or ends in */
     double *Gb, *Gp2, *Gjd;   /* guiding centre: |B|, p^2 and the J integrand of each lane */
+    /* Guiding-centre pushers (not hybrid): the per-step state of each lane's
+     * stream (by lane index li), as a struct of arrays, so that a step in
+     * which nothing happens to a lane but the trapezoid sums and the
+     * tracking of the |B| minimum -- no mirror point, no sample after a
+     * minimum, no cadence time, the azimuth within pi/4 -- is one
+     * vectorised pass (invariants.c stream_quiet).  The lane's struct lane
+     * holds the same values only around its other steps (hot_to_lane before,
+     * lane_to_hot after). */
+    struct {
+        double *s1[8], *s0[8]; /* L->s1 and the sample before it, as gsample_field */
+        double *jd1, *J, *mub; /* L->jd1, J_acc, mub */
+        double *Bmin;   /* eq_Bmin, or -inf where no equator is wanted */
+        double *tnext;  /* the first cadence time that asks for work (inf: none) */
+        double *cx, *cy; /* the stream contour's cprev, sprev */
+        int64_t *have;  /* have_s1 */
+        int64_t *next;  /* eq_need_next: the minimum is s1, e0 the sample before it */
+        int64_t *hprev; /* eq_has_prev */
+        int64_t *az;    /* the stream contour's azimuth is watched */
+        int64_t *slow;  /* scratch: lane position i needs stream_sample */
+    } hot;
     struct gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
      * push, the last live position and time (loss interpolation) */
@@ -132,9 +152,19 @@ void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event
 double gcp_obs_gamma_m(const struct gcp_observer *o, double p2);
 /* Kinetic energy [J] of momentum^2 p2: p^2 c^2 / (E + m c^2), no cancellation. */
 double gcp_obs_energy(const struct gcp_observer *o, double p2);
-/* The next stream sample of a lane (invariants.c). */
+/* The next stream sample of a lane (invariants.c); _jd: with its J
+ * integrand p_par^2 / (gamma m) given. */
 void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
                            const struct gsample *s);
+void gcp_obs_stream_sample_jd(struct gcp_observer *o, struct lane *L, int64_t id,
+                              const struct gsample *s, double jd);
+/* Guiding-centre pushers (invariants_quiet.c): the step at t of the n live
+ * lanes of b, all begun, |B|, p^2 and the J integrand in o->Gb, Gp2, Gjd;
+ * and the copies between o->hot and a lane's struct lane around any other
+ * call of gcp_obs_stream_sample_jd. */
+void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n);
+void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li);
+void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li);
 /* Full orbit: the live lanes of b at t into their gyro-averages, B at the
  * particles in o->Bx, By, Bz (invariants_fo.c). */
 void gcp_obs_fo_block(struct gcp_observer *o, const struct gcp_block *b, double t);
