@@ -38,6 +38,10 @@ GIT_HASH := $(shell git rev-parse --short=12 HEAD 2>/dev/null || echo unknown)
 CPPFLAGS += -DGCP_VERSION='"$(VERSION)"' -DGCP_GIT_HASH='"$(GIT_HASH)"' \
             -DGCP_BUILD_FLAGS='"$(CC) $(CSTD) $(OPTFLAGS)"'
 
+# Open MPI's parameter files (src/par/transport.c reads them before MPI_Init)
+OMPI_SYSCONFDIR := $(shell ompi_info --parsable --path sysconfdir 2>/dev/null | sed -n 's/^path:sysconfdir://p')
+CPPFLAGS += $(if $(OMPI_SYSCONFDIR),-DGCP_OMPI_SYSCONFDIR='"$(OMPI_SYSCONFDIR)"')
+
 LIB_SRC  := $(wildcard src/*.c src/*/*.c fields/*.c)
 LIB_SRC  := $(filter-out src/gcpush.c,$(LIB_SRC))
 LIB_OBJ  := $(LIB_SRC:%.c=$(BUILD)/%.o)

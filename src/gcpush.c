@@ -387,6 +387,7 @@ static void free_list(char **files, size_t n)
 int main(int argc, char **argv)
 {
     gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
+    gcp_par_local_defaults(); /* all ranks on this node: no network probing (README) */
     MPI_Init(&argc, &argv);
     gcp_phase_mark("init");
     MPI_Comm comm = MPI_COMM_WORLD;

@@ -395,11 +395,18 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     /* HDF5's OR of hyperslabs costs about the square of their number: past
      * ~32k runs of consecutive ids on a rank (2 M particles in 64-particle
      * chunks on 2 ranks) moving the rows is cheaper; below, it only adds
-     * copies and collectives (measured slower at 3e6 particles on 2 ranks) */
+     * copies and collectives (measured slower at 3e6 particles on 2 ranks).
+     * Trajectories are moved always, in blocks of whole chunk rows: each
+     * chunk then comes from one rank, which deflates it, instead of being
+     * gathered to one owner and then deflated there, and each rank's
+     * selection is one hyperslab instead of a walk over every element
+     * (2 ranks on the flagship: the trajectory write 0.27 -> 0.16 s, with
+     * the chunk shape and the single collective transfer below). */
     int64_t runs = 0;
     for (int64_t k = 0; k < r->n; k++) runs += k == 0 || r->id[k] != r->id[k - 1] + 1;
     MPI_Allreduce(MPI_IN_PLACE, &runs, 1, MPI_INT64_T, MPI_MAX, comm);
-    if (nranks > 1 && runs > gcp_writer_spread_runs()) gcp_writer_spread_plan(&w);
+    if (r->S) w.unit = gcp_writer_trajectory_rows(sc->total);
+    if (nranks > 1 && (runs > gcp_writer_spread_runs() || r->S)) gcp_writer_spread_plan(&w);
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
     gcp_phase_mark("w-plan");
     if (w.bad) {
@@ -449,6 +456,9 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     }
     w.dxpl = H5Pcreate(H5P_DATASET_XFER);
     H5Pset_dxpl_mpio(w.dxpl, H5FD_MPIO_COLLECTIVE);
+    /* all of a dataset's chunks in one collective transfer, not one round
+     * per chunk (HDF5 picks the rounds below ~30 chunks per rank) */
+    H5Pset_dxpl_mpio_chunk_opt(w.dxpl, H5FD_MPIO_CHUNK_ONE_IO);
     w.dxpl_ind = H5Pcreate(H5P_DATASET_XFER);
     H5Pset_dxpl_mpio(w.dxpl_ind, H5FD_MPIO_INDEPENDENT);
 

@@ -26,6 +26,7 @@ struct writer {
      * particles) made HDF5's selection and collective write quadratic. */
     MPI_Comm comm;
     int spread;              /* rows moved (more than one rank) */
+    int64_t unit;            /* blocks are whole units of rows (trajectory chunk rows), 0: 1 */
     int64_t lo, hi;
     int *scount, *sdispl, *rcount, *rdispl; /* rows to / from each rank */
     int64_t *place;          /* received row j goes to row place[j] - lo */
@@ -45,6 +46,8 @@ void gcp_writer_spread_free(struct writer *w);
  * properties dcpl and writes this rank's rows from data (collective). */
 void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, int rank,
                      hsize_t d1, hsize_t d2, const void *data, hid_t dcpl);
+/* Rows per trajectory chunk of a file of `total` particles. */
+int64_t gcp_writer_trajectory_rows(int64_t total);
 /* Chunked, shuffled and deflated creation properties for trajectories. */
 hid_t gcp_writer_trajectory_dcpl(const struct gcp_results *r, int64_t total, int rank, int level);
 /* A small dataset written by rank 0 alone (others select nothing). */

@@ -105,32 +105,59 @@ static int by_id(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Rows are permuted in place, one cycle of the permutation at a time
+ * through a one-row buffer: a copy of each column through a temporary
+ * moved every byte twice, into freshly mapped pages (0.08 s of the
+ * flagship's 1.2 s on one rank: its 15 MB of trajectories); rows already
+ * in order (one rank's pushing in id order) are not touched. */
 int gcp_results_sort(struct gcp_results *r)
 {
-    if (r->n < 2) return 0;
-    int64_t *perm = malloc((size_t)r->n * sizeof *perm);
-    if (!perm) return GCP_ERR_NOMEM;
-    for (int64_t k = 0; k < r->n; k++) perm[k] = k;
-    sort_keys_ = r->id;
-    qsort(perm, (size_t)r->n, sizeof *perm, by_id);
+    const int64_t n = r->n;
+    if (n < 2) return 0;
+    int64_t *perm = malloc((size_t)n * sizeof *perm);
+    unsigned char *placed = malloc((size_t)n);
     struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
     const size_t nc = gcp_results_columns(r, c);
-    int rc = 0;
-    for (size_t k = 0; k < nc && !rc; k++) {
-        /* row j of the sorted column is old row perm[j] */
+    size_t widest = 0;
+    for (size_t k = 0; k < nc; k++) {
         const size_t row = (size_t)c[k].per_row * c[k].elem;
-        char *tmp = malloc((size_t)r->n * row), *base = *c[k].data;
-        if (!tmp) {
-            rc = GCP_ERR_NOMEM;
-            break;
+        widest = row > widest ? row : widest;
+    }
+    char *held = malloc(widest);
+    if (!perm || !placed || !held) {
+        free(perm);
+        free(placed);
+        free(held);
+        return GCP_ERR_NOMEM;
+    }
+    for (int64_t k = 0; k < n; k++) perm[k] = k;
+    sort_keys_ = r->id;
+    qsort(perm, (size_t)n, sizeof *perm, by_id);
+    int64_t moved = 0;
+    for (int64_t k = 0; k < n; k++) moved += perm[k] != k;
+    for (size_t k = 0; k < nc && moved; k++) {
+        /* row j of the sorted column is old row perm[j]: follow each cycle
+         * j <- perm[j] <- perm[perm[j]] ..., holding its first row */
+        const size_t row = (size_t)c[k].per_row * c[k].elem;
+        char *base = *c[k].data;
+        memset(placed, 0, (size_t)n);
+        for (int64_t i = 0; i < n; i++) {
+            if (placed[i] || perm[i] == i) continue;
+            memcpy(held, base + (size_t)i * row, row);
+            int64_t j = i;
+            while (perm[j] != i) {
+                memcpy(base + (size_t)j * row, base + (size_t)perm[j] * row, row);
+                placed[j] = 1;
+                j = perm[j];
+            }
+            memcpy(base + (size_t)j * row, held, row);
+            placed[j] = 1;
         }
-        for (int64_t j = 0; j < r->n; j++) memcpy(tmp + (size_t)j * row, base + (size_t)perm[j] * row, row);
-        memcpy(base, tmp, (size_t)r->n * row);
-        free(tmp);
     }
     free(perm);
-    if (!rc) rc = gcp_events_sort(&r->ev);
-    return rc;
+    free(placed);
+    free(held);
+    return gcp_events_sort(&r->ev);
 }
 
 int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)

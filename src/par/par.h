@@ -25,6 +25,20 @@ void gcp_par_counter_report(struct gcp_par_counter *c, int64_t particles, int64_
 void gcp_par_counter_totals(struct gcp_par_counter *c, int64_t *particles, int64_t *steps);
 void gcp_par_counter_free(struct gcp_par_counter *c);
 
+/* Open MPI's start-up where every rank is on this node (transport.c):
+ * called before MPI_Init, it asks for the ob1 point-to-point layer (no
+ * probing for network hardware) and, in a process started without mpirun,
+ * for no helper daemon -- each only where neither the environment nor
+ * Open MPI's parameter files choose already, and never under a launcher
+ * that does not say all ranks share the node.  Returns what it set
+ * (GCP_PAR_* bits); nothing with another MPI.  gcp_par_local_defaults_for
+ * is its decision alone: environment lookups through `get`, the parameter
+ * files `files` (NULL-terminated). */
+enum { GCP_PAR_OB1 = 1, GCP_PAR_ISOLATED = 2 };
+typedef const char *(*gcp_par_getenv)(void *ctx, const char *name);
+unsigned gcp_par_local_defaults(void);
+unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *const *files);
+
 /* Per-rank phase timing, on only with GCPUSH_TIMING=1 in the environment
  * (phases.c); every call is a no-op otherwise.  gcp_phase_start first
  * (before MPI_Init: the first phase runs from the process's start); each
