@@ -23,10 +23,15 @@
  *   particle-step of gcp_push_boris_batch + gcp_drift_batch against the
  *   hand-written fused kick + drift loop (goal <= 1.1x).
  *
+ * Streaming (issue 12): the library's block push, gcp_block_advance_fo,
+ *   one step per call over 1e7 particles, as a fraction of the memory
+ *   floor measured on the same arrays in the same run (part_stream).
+ *
  * Part 3 (issue 11): guiding-centre methods, cost per step against gc-rk4.
  *
  * Usage: bench_push [scale]   (scale < 1 shortens every measurement, for smoke tests)
- *        bench_push gc        (part 3 alone: the guiding-centre methods of issue 11) */
+ *        bench_push gc        (part 3 alone: the guiding-centre methods of issue 11)
+ *        bench_push stream [scale]  (the issue-12 streaming part alone) */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
