@@ -63,13 +63,18 @@ struct gcp_fo_tile_args {
 /* Up to kmax steps of lanes [0, nt) of one tile (arrays at the tile's
  * first lane): returns the steps taken, kmax or the first step after which
  * a lane's status is non-zero, and sets *stopped to 1 in the latter case
- * (it is left as it was otherwise).  Only x and u are read and written:
- * the drift factor (dt/2)/gamma(u) is a function of u, computed from it on
+ * (it is left as it was otherwise).  x and u are read and written; the
+ * drift factor (dt/2)/gamma(u), a function of u, is computed from it on
  * entry (the expression of the block step's half_drift_factor, so the same
- * bits) and kept in the tile between its steps, never stored -- a step
- * that streams the block from memory moves x and u and nothing else. */
+ * bits) and kept in the tile between its steps -- a step that streams the
+ * block from memory moves x and u and nothing else.  hg: NULL, or the
+ * tile's drift factors, read on entry instead of recomputed when hg_mode
+ * has GCP_FO_HG_IN and written on return when it has GCP_FO_HG_OUT (the
+ * push's next call then need not recompute them: fo_step.c). */
+#define GCP_FO_HG_IN 1
+#define GCP_FO_HG_OUT 2
 typedef int64_t (*gcp_fo_tile_fn)(double *x, double *y, double *z, double *ux, double *uy,
-                                  double *uz, size_t nt, int64_t kmax,
+                                  double *uz, double *hg, int hg_mode, size_t nt, int64_t kmax,
                                   const struct gcp_fo_tile_args *a, int32_t *stopped);
 
 /* A pusher's fused kernels, by form and by E (tile[form][has_E]; NULL:
@@ -90,19 +95,26 @@ struct gcp_fo_fused {
 #define GCP_FO_TILE_DEFINE_(FNAME, FORM_, KICK_, CARRY_)                                        \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
-                         size_t nt, int64_t kmax, const struct gcp_fo_tile_args *a,             \
-                         int32_t *stopped)                                                      \
+                         double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
+                         const struct gcp_fo_tile_args *a, int32_t *stopped)                    \
     {                                                                                           \
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
         double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                                 \
         (void)q, (void)m, (void)dt, (void)G;                                                    \
-        for (size_t i = 0; i < nt; i++) {                                                       \
-            const double G0 = gcp_gamma_of_u(ux[i], uy[i], uz[i]);                              \
-            if (CARRY_) G[i] = G0;                                                              \
-            hg[i] = h / G0;                                                                     \
+        if (hg_mode & GCP_FO_HG_IN) {                                                           \
+            for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
+            if (CARRY_)                                                                         \
+                for (size_t i = 0; i < nt; i++) G[i] = gcp_gamma_of_u(ux[i], uy[i], uz[i]);     \
+        } else {                                                                                \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                const double G0 = gcp_gamma_of_u(ux[i], uy[i], uz[i]);                          \
+                if (CARRY_) G[i] = G0;                                                          \
+                hg[i] = h / G0;                                                                 \
+            }                                                                                   \
         }                                                                                       \
-        for (int64_t s = 0; s < kmax; s++) {                                                    \
+        int64_t s = 0;                                                                          \
+        for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             for (size_t i = 0; i < nt; i++) {                                                   \
                 double U = ux[i], V = uy[i], W = uz[i];                                         \
@@ -126,10 +138,13 @@ struct gcp_fo_fused {
             }                                                                                   \
             if (any) {                                                                          \
                 *stopped = 1;                                                                   \
-                return s + 1;                                                                   \
+                s++;                                                                            \
+                break;                                                                          \
             }                                                                                   \
         }                                                                                       \
-        return kmax;                                                                            \
+        if (hg_mode & GCP_FO_HG_OUT)                                                            \
+            for (size_t i = 0; i < nt; i++) hg_io[i] = hg[i];                                   \
+        return s;                                                                               \
     }
 
 /* The fused kernel set of a full-orbit pusher NAME from its scalar kicks

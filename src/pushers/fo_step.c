@@ -91,16 +91,22 @@ struct fo_ctx {
     struct gcp_fo_tile_args targs;
     double *save;                  /* [6 b->n] the block's x, u at the start of fo_steps */
     int64_t *done;                 /* [tiles] steps each tile took */
+    int64_t left;                  /* steps of the push not yet taken */
+    int hg_valid;                  /* [bool] b->hg holds the live lanes' drift factors */
 };
 
 /* u does not change between a step's second half drift and the next
  * step's first, so (dt/2)/gamma is computed once per step (bit-identical to
  * recomputing it); when lanes are renumbered it is recomputed.  The fused
- * step keeps its own (fo_fused_priv.h): then b->hg is not touched. */
+ * step computes its own on a tile's entry (fo_fused_priv.h) and leaves
+ * them in b->hg only for the push's next call (fo_steps). */
 static void fo_relanes(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n)
 {
-    const struct fo_ctx *c = vctx;
-    if (c->tile) return;
+    struct fo_ctx *c = vctx;
+    if (c->tile) {
+        c->hg_valid = 0;
+        return;
+    }
     half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, 0.5 * ev->o->dt);
 }
 
@@ -122,7 +128,8 @@ static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block
     return 0;
 }
 
-/* The block's per-lane state that a step changes, for fo_steps' restore. */
+/* The block's per-lane state that a step changes, for fo_steps' restore
+ * (the drift factors are recomputed from u: the same bits). */
 static void fo_state_arrays(struct gcp_block *b, double *a[6])
 {
     a[0] = b->x, a[1] = b->y, a[2] = b->z, a[3] = b->ux, a[4] = b->uy, a[5] = b->uz;
@@ -136,7 +143,11 @@ static void fo_state_arrays(struct gcp_block *b, double *a[6])
  * kd steps).  A stop is rare (a lane leaving the domain), so the rerun
  * costs nothing in the usual push; the copy is one pass per call of more
  * than one step (none in a streaming push of one step per call).  *stops:
- * 0 when no lane stopped (the evolve layer then need not classify). */
+ * 0 when no lane stopped (the evolve layer then need not classify).
+ * When the push goes on after this call (a sampler's cadence), the tiles
+ * leave their drift factors in b->hg for the next call to read instead of
+ * recomputing (a square root and a division a lane); a push of one call
+ * (one step per call, streaming) never touches b->hg. */
 static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                         double t, double dt, int64_t kmax, int32_t *stops)
 {
@@ -150,10 +161,12 @@ static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_bloc
     int64_t kd = kmax;
     int32_t stopped = 0;
     size_t tile = 0;
+    const int more = kmax < c->left; /* another call of this push follows */
+    const int hg_mode = (c->hg_valid ? GCP_FO_HG_IN : 0) | (more ? GCP_FO_HG_OUT : 0);
     for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE, tile++) {
         const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
         const int64_t k = c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0,
-                                  a[5] + i0, nt, kd, &c->targs, &stopped);
+                                  a[5] + i0, b->hg + i0, hg_mode, nt, kd, &c->targs, &stopped);
         if (kmax > 1) c->done[tile] = k;
         if (k < kd) kd = k;
     }
@@ -164,8 +177,9 @@ static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_bloc
             const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
             for (int k = 0; k < 6; k++)
                 memcpy(a[k] + i0, c->save + (size_t)k * b->n + i0, nt * sizeof(double));
-            c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0, nt, kd,
-                    &c->targs, &stopped);
+            /* the restored u's drift factors from u, not b->hg (the first run's) */
+            c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0,
+                    b->hg + i0, hg_mode & GCP_FO_HG_OUT, nt, kd, &c->targs, &stopped);
         }
     }
     /* A tile that stopped set `stopped` (with kd < kmax some tile stopped
@@ -173,6 +187,8 @@ static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_bloc
      * everywhere, give no field verdict; otherwise fstatus is not read. */
     *stops = stopped;
     if (stopped) memset(b->fstatus, 0, n * sizeof(int32_t));
+    c->left -= kd;
+    c->hg_valid = more;
     return kd;
 }
 
@@ -190,6 +206,7 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
     /* Chosen once: with no electric field the gathered E stays zero, or the
      * pusher's pure-magnetic kick skips the E terms altogether. */
     struct fo_ctx c = {.p = p,
+                       .left = nsteps,
                        .Ex = f->has_E ? b->Ex : NULL,
                        .Ey = f->has_E ? b->Ey : NULL,
                        .Ez = f->has_E ? b->Ez : NULL,
