@@ -46,9 +46,9 @@
 #include "gcpush/kernels.h"
 #include "block_priv.h"
 
-/* Lanes per tile: 6 arrays of GCP_FO_TILE doubles (6 KiB) and the
- * gamma and drift-factor scratch stay in L1 (32 KiB here) with room to spare, and a tile is
- * 16 AVX-512 vectors, so the loop's vector body dominates its remainder.
+/* Lanes per tile: 6 arrays of GCP_FO_TILE doubles (6 KiB) and the gamma
+ * and drift-factor scratch stay in L1 (32 KiB here) with room to spare,
+ * and a tile is 16 AVX-512 vectors, so the loop's vector body dominates its remainder.
  * Chosen, not tuned: the fused step is bound by its multiplications
  * (docs/DESIGN.md), not by where the tile lives once it is in L1. */
 #define GCP_FO_TILE 128
@@ -67,10 +67,11 @@ struct gcp_fo_tile_args {
  * drift factor (dt/2)/gamma(u), a function of u, is computed from it on
  * entry (the expression of the block step's half_drift_factor, so the same
  * bits) and kept in the tile between its steps -- a step that streams the
- * block from memory moves x and u and nothing else.  hg: NULL, or the
- * tile's drift factors, read on entry instead of recomputed when hg_mode
- * has GCP_FO_HG_IN and written on return when it has GCP_FO_HG_OUT (the
- * push's next call then need not recompute them: fo_step.c). */
+ * block from memory moves x and u and nothing else.  hg: the tile's
+ * slots of b->hg, read on entry instead of recomputing the drift factors
+ * when hg_mode has GCP_FO_HG_IN, written on return when it has
+ * GCP_FO_HG_OUT (the push's next call then reads them: fo_step.c), not
+ * touched when hg_mode is 0. */
 #define GCP_FO_HG_IN 1
 #define GCP_FO_HG_OUT 2
 typedef int64_t (*gcp_fo_tile_fn)(double *x, double *y, double *z, double *ux, double *uy,
