@@ -126,7 +126,17 @@ struct gcp_block {
     double *Bx, *By, *Bz, *Ex, *Ey, *Ez;
     int32_t *fstatus;
     double *hg;          /* [s] (dt/2) / gamma of each live lane, kept between half drifts */
+    unsigned flags;      /* GCP_BLOCK_* below; 0 from gcp_block_alloc */
 };
+
+/* The caller keeps the clock of the live lanes (a PIC code, which knows
+ * that every live particle is at t0 + nsteps dt after a push): a
+ * fixed-step push (gcp_block_advance_fo, gc-rk4, gc-gl2/gl4, ...) leaves
+ * their t and steps as they were, so that a push of a block far larger
+ * than the caches reads and writes x and u only.  A lane that stops gets
+ * its t (the time of the stop) and its steps increased by the steps of the
+ * push in which it stopped, as always. */
+#define GCP_BLOCK_CALLER_CLOCK 1u
 
 /* Allocates a block of n lanes (all arrays; index[i] = i). */
 int gcp_block_alloc(struct gcp_block *b, size_t n);

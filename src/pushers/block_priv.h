@@ -73,7 +73,8 @@ static inline void gcp_lane_failure_default(struct gcp_block *b, size_t i)
     else if (b->step_failure[i] == GCP_FAIL_NONE) b->step_failure[i] = GCP_FAIL_UNSPECIFIED;
 }
 
-/* Ends a push of k steps: the n live lanes get t = t_end and k more steps. */
+/* Ends a push of k steps: the n live lanes get t = t_end and k more steps
+ * (unless the caller keeps their clock: GCP_BLOCK_CALLER_CLOCK). */
 void gcp_block_finish(struct gcp_block *b, size_t n, double t_end, int64_t k);
 
 

@@ -87,10 +87,14 @@ struct gcp_stepper {
      * steps, none would have stopped by gcp_block_classify after steps
      * 1 .. kd-1, and b->fstatus holds the field's verdict of step kd -- the
      * state lock-step would reach; 0 when it cannot (then `step` runs).
-     * Never fails a lane.  The evolve layer bounds kmax by the push's end
-     * and the next sampling step. */
+     * *stops = 0 (when it took them) says more: it tested every lane after
+     * step kd with the classification's own test (gcp_lane_stops) and the
+     * field gives no verdict, and none stops -- the layer then skips its
+     * classification pass (the live lanes stay ALIVE), and b->fstatus need
+     * not be written.  Never fails a lane.  The evolve layer bounds kmax by
+     * the push's end and the next sampling step. */
     int64_t (*steps)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
-                     double t, double h, int64_t kmax);
+                     double t, double h, int64_t kmax, int32_t *stops);
     /* Or the same for one lane with its state (used when step is NULL):
      * returns 0 or the lane's status, as gcp_gc_lane_ops.step. */
     int (*step_lane)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
@@ -181,10 +185,11 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
         /* several steps at once: k and t move to the last of them, which
          * is then classified (and sampled) as any single step */
         int64_t kd = 0;
+        int32_t stops = 1; /* 0: the stepper's `steps` found no lane to stop */
         if (st->steps && !st->start) {
             int64_t kmax = o->nsteps - k;
             if (every && every - k % every < kmax) kmax = every - k % every;
-            kd = st->steps(&ev, ctx, b, n, t, h, kmax);
+            kd = st->steps(&ev, ctx, b, n, t, h, kmax, &stops);
             if (kd > 1) k += kd - 1, t = o->t0 + (double)k * h;
         }
         if (kd > 0) {
@@ -201,7 +206,7 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
         }
         int moved = 0;
         if (failed) n = gcp_evolve_retire(b, L, sz, tmp, n, t, k), moved = 1;
-        if (gcp_block_classify(b, n, f, gc))
+        if ((kd == 0 || stops) && gcp_block_classify(b, n, f, gc))
             n = gcp_evolve_retire(b, L, sz, tmp, n, t + h, k + 1), moved = 1;
         if (moved && st->relanes) st->relanes(&ev, ctx, b, n);
         b->n_active = n;

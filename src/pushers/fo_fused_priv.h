@@ -13,7 +13,7 @@
  *
  * -- the same operations in the same order as the passes (bit-identical;
  * the build keeps -ffp-contract=off) -- over tiles of GCP_FO_TILE lanes,
- * several steps per tile while the tile's 7 arrays (7 x 8 x 128 B = 7 KiB)
+ * several steps per tile while the tile's 6 arrays (6 x 8 x 128 B = 6 KiB)
  * stay in L1.  That is the limit kernel's "resident" regime (many steps
  * per block in L1, ../shared/limit); lanes are independent, so stepping a
  * tile ahead of the others changes no lane's arithmetic.  What must stay
@@ -21,9 +21,17 @@
  * step in which any of its lanes stops (the classification's verdict,
  * computed in the loop), and the block's step count is the smallest over
  * tiles -- tiles that ran further are restored and run again to it
- * (fo_step.c fo_steps).  The evolve layer then classifies and retires as
- * after any step, and samples at its sampling steps, which bound the steps
- * asked for (evolve_priv.h `steps`).
+ * (fo_step.c fo_steps).  When a lane stopped, the evolve layer then
+ * classifies and retires as after any step; when none did, the loop's test
+ * was the classification (the closed forms give no field verdict), so the
+ * layer skips its pass over the block.  It samples at its sampling steps,
+ * which bound the steps asked for (evolve_priv.h `steps`).
+ *
+ * Streaming (issue 12: one step per call over a block far larger than the
+ * caches, as a PIC code pushes): the tile reads and writes x and u and
+ * nothing else -- no drift-factor array (hg is recomputed from u on entry),
+ * no status or field-verdict pass unless a lane stopped -- so a step moves
+ * the 96 B a lane that the memory floor moves.
  *
  * One tile function per (form, kick): the form's B and the kick are inline
  * in the loop, chosen once per push (fo_ctx), never per lane or per step.
@@ -38,9 +46,9 @@
 #include "gcpush/kernels.h"
 #include "block_priv.h"
 
-/* Lanes per tile: 7 arrays of GCP_FO_TILE doubles (7 KiB) and the
- * gamma scratch stay in L1 (32 KiB here) with room to spare, and a tile is
- * 16 AVX-512 vectors, so the loop's vector body dominates its remainder.
+/* Lanes per tile: 6 arrays of GCP_FO_TILE doubles (6 KiB) and the gamma
+ * and drift-factor scratch stay in L1 (32 KiB here) with room to spare,
+ * and a tile is 16 AVX-512 vectors, so the loop's vector body dominates its remainder.
  * Chosen, not tuned: the fused step is bound by its multiplications
  * (docs/DESIGN.md), not by where the tile lives once it is in L1. */
 #define GCP_FO_TILE 128
@@ -53,12 +61,22 @@ struct gcp_fo_tile_args {
 };
 
 /* Up to kmax steps of lanes [0, nt) of one tile (arrays at the tile's
- * first lane; hg = (dt/2)/gamma(u) on entry and on return): returns the
- * steps taken, kmax or the first step after which a lane's status is
- * non-zero. */
+ * first lane): returns the steps taken, kmax or the first step after which
+ * a lane's status is non-zero, and sets *stopped to 1 in the latter case
+ * (it is left as it was otherwise).  x and u are read and written; the
+ * drift factor (dt/2)/gamma(u), a function of u, is computed from it on
+ * entry (the expression of the block step's half_drift_factor, so the same
+ * bits) and kept in the tile between its steps -- a step that streams the
+ * block from memory moves x and u and nothing else.  hg: the tile's
+ * slots of b->hg, read on entry instead of recomputing the drift factors
+ * when hg_mode has GCP_FO_HG_IN, written on return when it has
+ * GCP_FO_HG_OUT (the push's next call then reads them: fo_step.c), not
+ * touched when hg_mode is 0. */
+#define GCP_FO_HG_IN 1
+#define GCP_FO_HG_OUT 2
 typedef int64_t (*gcp_fo_tile_fn)(double *x, double *y, double *z, double *ux, double *uy,
-                                  double *uz, double *hg, size_t nt, int64_t kmax,
-                                  const struct gcp_fo_tile_args *a);
+                                  double *uz, double *hg, int hg_mode, size_t nt, int64_t kmax,
+                                  const struct gcp_fo_tile_args *a, int32_t *stopped);
 
 /* A pusher's fused kernels, by form and by E (tile[form][has_E]; NULL:
  * none, the block step runs). */
@@ -78,16 +96,26 @@ struct gcp_fo_fused {
 #define GCP_FO_TILE_DEFINE_(FNAME, FORM_, KICK_, CARRY_)                                        \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
-                         double *restrict hg, size_t nt, int64_t kmax,                          \
-                         const struct gcp_fo_tile_args *a)                                      \
+                         double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
+                         const struct gcp_fo_tile_args *a, int32_t *stopped)                    \
     {                                                                                           \
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
-        double G[GCP_FO_TILE];                                                                  \
+        double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                                 \
         (void)q, (void)m, (void)dt, (void)G;                                                    \
-        if (CARRY_)                                                                             \
-            for (size_t i = 0; i < nt; i++) G[i] = gcp_gamma_of_u(ux[i], uy[i], uz[i]);         \
-        for (int64_t s = 0; s < kmax; s++) {                                                    \
+        if (hg_mode & GCP_FO_HG_IN) {                                                           \
+            for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
+            if (CARRY_)                                                                         \
+                for (size_t i = 0; i < nt; i++) G[i] = gcp_gamma_of_u(ux[i], uy[i], uz[i]);     \
+        } else {                                                                                \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                const double G0 = gcp_gamma_of_u(ux[i], uy[i], uz[i]);                          \
+                if (CARRY_) G[i] = G0;                                                          \
+                hg[i] = h / G0;                                                                 \
+            }                                                                                   \
+        }                                                                                       \
+        int64_t s = 0;                                                                          \
+        for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             for (size_t i = 0; i < nt; i++) {                                                   \
                 double U = ux[i], V = uy[i], W = uz[i];                                         \
@@ -109,9 +137,15 @@ struct gcp_fo_fused {
                 const double u2 = U * U + V * V + W * W;                                        \
                 any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
             }                                                                                   \
-            if (any) return s + 1;                                                              \
+            if (any) {                                                                          \
+                *stopped = 1;                                                                   \
+                s++;                                                                            \
+                break;                                                                          \
+            }                                                                                   \
         }                                                                                       \
-        return kmax;                                                                            \
+        if (hg_mode & GCP_FO_HG_OUT)                                                            \
+            for (size_t i = 0; i < nt; i++) hg_io[i] = hg[i];                                   \
+        return s;                                                                               \
     }
 
 /* The fused kernel set of a full-orbit pusher NAME from its scalar kicks

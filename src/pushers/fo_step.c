@@ -89,16 +89,24 @@ struct fo_ctx {
      * and the pusher has a fused kernel for it */
     gcp_fo_tile_fn tile;
     struct gcp_fo_tile_args targs;
-    double *save;                  /* [7 b->n] the block's x, u, hg at the start of fo_steps */
+    double *save;                  /* [6 b->n] the block's x, u at the start of fo_steps */
     int64_t *done;                 /* [tiles] steps each tile took */
+    int64_t left;                  /* steps of the push not yet taken */
+    int hg_valid;                  /* [bool] b->hg holds the live lanes' drift factors */
 };
 
 /* u does not change between a step's second half drift and the next
  * step's first, so (dt/2)/gamma is computed once per step (bit-identical to
- * recomputing it); when lanes are renumbered it is recomputed. */
+ * recomputing it); when lanes are renumbered it is recomputed.  The fused
+ * step computes its own on a tile's entry (fo_fused_priv.h) and leaves
+ * them in b->hg only for the push's next call (fo_steps). */
 static void fo_relanes(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n)
 {
-    (void)vctx;
+    struct fo_ctx *c = vctx;
+    if (c->tile) {
+        c->hg_valid = 0;
+        return;
+    }
     half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, 0.5 * ev->o->dt);
 }
 
@@ -120,10 +128,11 @@ static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block
     return 0;
 }
 
-/* The block's per-lane state that a step changes, for fo_steps' restore. */
-static void fo_state_arrays(struct gcp_block *b, double *a[7])
+/* The block's per-lane state that a step changes, for fo_steps' restore
+ * (the drift factors are recomputed from u: the same bits). */
+static void fo_state_arrays(struct gcp_block *b, double *a[6])
 {
-    a[0] = b->x, a[1] = b->y, a[2] = b->z, a[3] = b->ux, a[4] = b->uy, a[5] = b->uz, a[6] = b->hg;
+    a[0] = b->x, a[1] = b->y, a[2] = b->z, a[3] = b->ux, a[4] = b->uy, a[5] = b->uz;
 }
 
 /* Up to kmax fused steps, tile by tile (fo_fused_priv.h): each tile runs
@@ -132,23 +141,32 @@ static void fo_state_arrays(struct gcp_block *b, double *a[7])
  * kd are restored from `save` and run again to kd (the same arithmetic, so
  * the same numbers: every lane then holds exactly its lock-step state after
  * kd steps).  A stop is rare (a lane leaving the domain), so the rerun
- * costs nothing in the usual push; the copy is one pass per call. */
+ * costs nothing in the usual push; the copy is one pass per call of more
+ * than one step (none in a streaming push of one step per call).  *stops:
+ * 0 when no lane stopped (the evolve layer then need not classify).
+ * When the push goes on after this call (a sampler's cadence), the tiles
+ * leave their drift factors in b->hg for the next call to read instead of
+ * recomputing (a square root and a division a lane); a push of one call
+ * (one step per call, streaming) never touches b->hg. */
 static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
-                        double t, double dt, int64_t kmax)
+                        double t, double dt, int64_t kmax, int32_t *stops)
 {
     struct fo_ctx *c = vctx;
     (void)ev, (void)t, (void)dt;
-    if (!c->tile || (kmax > 1 && !c->save)) return 0;
-    double *a[7];
+    if (!c->tile) return 0;
+    double *a[6];
     fo_state_arrays(b, a);
     if (kmax > 1)
-        for (int k = 0; k < 7; k++) memcpy(c->save + (size_t)k * b->n, a[k], n * sizeof(double));
+        for (int k = 0; k < 6; k++) memcpy(c->save + (size_t)k * b->n, a[k], n * sizeof(double));
     int64_t kd = kmax;
+    int32_t stopped = 0;
     size_t tile = 0;
+    const int more = kmax < c->left; /* another call of this push follows */
+    const int hg_mode = (c->hg_valid ? GCP_FO_HG_IN : 0) | (more ? GCP_FO_HG_OUT : 0);
     for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE, tile++) {
         const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
         const int64_t k = c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0,
-                                  a[5] + i0, a[6] + i0, nt, kd, &c->targs);
+                                  a[5] + i0, b->hg + i0, hg_mode, nt, kd, &c->targs, &stopped);
         if (kmax > 1) c->done[tile] = k;
         if (k < kd) kd = k;
     }
@@ -157,14 +175,20 @@ static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_bloc
         for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE, tile++) {
             if (c->done[tile] == kd) continue;
             const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
-            for (int k = 0; k < 7; k++)
+            for (int k = 0; k < 6; k++)
                 memcpy(a[k] + i0, c->save + (size_t)k * b->n + i0, nt * sizeof(double));
-            c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0, a[6] + i0,
-                    nt, kd, &c->targs);
+            /* the restored u's drift factors from u, not b->hg (the first run's) */
+            c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0,
+                    b->hg + i0, hg_mode & GCP_FO_HG_OUT, nt, kd, &c->targs, &stopped);
         }
     }
-    /* the closed forms are defined everywhere: no field verdict */
-    memset(b->fstatus, 0, n * sizeof(int32_t));
+    /* A tile that stopped set `stopped` (with kd < kmax some tile stopped
+     * at kd).  Then the layer classifies, and the closed forms, defined
+     * everywhere, give no field verdict; otherwise fstatus is not read. */
+    *stops = stopped;
+    if (stopped) memset(b->fstatus, 0, n * sizeof(int32_t));
+    c->left -= kd;
+    c->hg_valid = more;
     return kd;
 }
 
@@ -182,6 +206,7 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
     /* Chosen once: with no electric field the gathered E stays zero, or the
      * pusher's pure-magnetic kick skips the E terms altogether. */
     struct fo_ctx c = {.p = p,
+                       .left = nsteps,
                        .Ex = f->has_E ? b->Ex : NULL,
                        .Ey = f->has_E ? b->Ey : NULL,
                        .Ez = f->has_E ? b->Ez : NULL,
@@ -203,10 +228,11 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
             .rout2 = f->r_outer * f->r_outer, .zmax = f->z_max};
         memcpy(c.targs.p, form.p, sizeof form.p);
         if (nsteps > 1) {
-            /* without memory, one step at a time (fo_steps with kmax = 1) */
-            c.save = malloc(7 * (b->n + 1) * sizeof(double));
+            /* without memory, the block step (the same numbers) */
+            c.save = malloc(6 * (b->n + 1) * sizeof(double));
             c.done = malloc((b->n / GCP_FO_TILE + 1) * sizeof(int64_t));
-            if (!c.save || !c.done) free(c.save), free(c.done), c.save = NULL, c.done = NULL;
+            if (!c.save || !c.done)
+                free(c.save), free(c.done), c.save = NULL, c.done = NULL, c.tile = NULL;
         }
     }
     const struct gcp_push_opts o = {.t0 = t0, .dt = dt, .nsteps = nsteps};
