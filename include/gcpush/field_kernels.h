@@ -68,6 +68,66 @@ static inline GCP_HD void gcp_point_B_dipole(double c, double x, double y, doubl
     *bz = c5 * (r2 - 3.0 * z * z);
 }
 
+/* The dipole's B and its gradient G_ij = dB_i/dx_j (what the guiding
+ * centre needs: gcp_gc_rhs), differentiating B above:
+ *   G_ij = -3 c/r^5 [ z d_ij + x_i d_jz + x_j d_iz - 5 z x_i x_j / r^2 ],
+ * symmetric (curl B = 0) and traceless (div B = 0), written out per
+ * component, G_ij = a (-zf x_i x_j [+ z if i = j] [+ x_i if j = z]
+ * [+ x_j if i = z]) with a = -3 c/r^5, zf = 5 z/r^2, in the operations and
+ * order of fields/dipole.c's eval and block evaluation (bit-identical).
+ * 1 square root and 2 divisions. */
+static inline GCP_HD void gcp_point_BG_dipole(double c, double x, double y, double z,
+                                              double B[3], double G[3][3])
+{
+    double r2 = x * x + y * y + z * z;
+    r2 = r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
+    const double c5 = c / (r2 * r2 * sqrt(r2));
+    const double a = -3.0 * c5, zf = 5.0 * z / r2;
+    B[0] = a * z * x;
+    B[1] = a * z * y;
+    B[2] = c5 * (r2 - 3.0 * z * z);
+    const double px = -zf * x, py = -zf * y, pz = -zf * z;
+    G[0][0] = a * (px * x + z);
+    G[0][1] = a * (px * y);
+    G[0][2] = a * (px * z + x);
+    G[1][0] = a * (py * x);
+    G[1][1] = a * (py * y + z);
+    G[1][2] = a * (py * z + y);
+    G[2][0] = a * (pz * x + x);
+    G[2][1] = a * (pz * y + y);
+    G[2][2] = a * (((pz * z + z) + z) + z);
+}
+
+/* The dipole's B, |B| and H = B.grad B, H_j = B_i dB_i/dx_j = grad(|B|^2)_j/2
+ * = |B| grad|B| (what the guiding-centre right-hand side needs of the
+ * field in a curl-free field, src/pushers/gc_rk4_fused.c), from
+ * |B|^2 = c^2 (r^2 + 3 z^2)/r^8:
+ *   |B| = |c5| r sqrt(r^2 + 3 z^2),
+ *   H = -3 c5^2 ((r^2 + 4 z^2) x, (r^2 + 4 z^2) y, 4 z^2 z),   c5 = c/r^5,
+ * with B as gcp_point_B_dipole, bit for bit.  |B| from its closed form
+ * (its square root runs beside r's, not after B), 2 square roots and 1
+ * division (B and the full gradient, then |B| from B: 2 and 2), 20
+ * multiplications (37).  |B| and H equal those of the model's B and grad B
+ * to round-off, not bit for bit (tests/unit/test_conformance.c). */
+static inline GCP_HD void gcp_point_BH_dipole(double c, double x, double y, double z, double B[3],
+                                              double *Bm, double H[3])
+{
+    const double zz = z * z;
+    double r2 = x * x + y * y + zz;
+    r2 = r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
+    const double r = sqrt(r2), q = sqrt(r2 + 3.0 * zz);
+    const double c5 = c / (r2 * r2 * r);
+    const double m3 = -3.0 * c5, m3z = m3 * z;
+    B[0] = m3z * x;
+    B[1] = m3z * y;
+    B[2] = c5 * (r2 - 3.0 * z * z);
+    *Bm = fabs(c5) * (r * q);
+    const double w = m3 * c5, z4 = 4.0 * zz, wt = w * (r2 + z4);
+    H[0] = wt * x;
+    H[1] = wt * y;
+    H[2] = (w * z4) * z;
+}
+
 /* Any form at one point: B [T] and E [V/m] (zeros where the form has
  * none).  A switch per call: for checks and scalar use; the fused loops
  * instantiate one form each instead. */
@@ -86,6 +146,15 @@ static inline GCP_HD void gcp_point_B_eval(const struct gcp_point_B *f, double x
     default:
         B[0] = B[1] = B[2] = 0.0;
     }
+}
+
+/* The same with grad B [T/m] (zero for the uniform form). */
+static inline GCP_HD void gcp_point_BG_eval(const struct gcp_point_B *f, double x, double y,
+                                            double z, double B[3], double G[3][3], double E[3])
+{
+    gcp_point_B_eval(f, x, y, z, B, E);
+    for (int i = 0; i < 3; i++) G[i][0] = G[i][1] = G[i][2] = 0.0;
+    if (f->form == GCP_POINT_B_DIPOLE) gcp_point_BG_dipole(f->p[0], x, y, z, B, G);
 }
 
 #endif /* GCPUSH_FIELD_KERNELS_H */
