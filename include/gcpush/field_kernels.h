@@ -6,7 +6,12 @@
  * these forms says so through gcp_field_type.point_B (field.h): it fills a
  * struct gcp_point_B with the form id and its parameters.  A pusher can
  * then fuse drift, field and kick into one loop per (form, kick), chosen
- * once per push outside the inner loop (src/pushers/fo_fused_priv.h).
+ * once per push outside the inner loop (src/pushers/fo_fused_priv.h), or
+ * the stages of gc-rk4 into one loop per stage and form
+ * (src/pushers/gc_rk4_fused.c, which takes the dipole's |B| and B.grad B
+ * below).  The forms are vacuum fields (curl B = 0), which the fused
+ * guiding-centre right-hand side uses (B*_par = |B|): a form of a field
+ * with currents needs its own right-hand side there.
  *
  * Which layer knows what (docs/DESIGN.md, "Point field kernels"):
  *  - this header knows formulas, not models: "a centred dipole c (-3 z x +

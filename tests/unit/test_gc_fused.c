@@ -134,7 +134,7 @@ static void compare(const char *what, const struct gcp_field *model, const doubl
      * forward with a phase error that grows with the number of periods
      * (3 bounces: a factor ~ 2 pi x 3 ~ 20): 7e-14 of the travel, taken as
      * 1e-12 of the largest travel |X_end - X_0| (of |p| for p_par).
-     * Measured: up to 4e-14.  A push with dt 1e-9 longer differs by ~1e-9
+     * Measured: up to 7e-14.  A push with dt 1e-9 longer differs by ~1e-9
      * of the travel, and is checked to fail it (below). */
     double travel = 0.0, pmax = 0.0;
     for (size_t i = 0; i < N; i++) {
