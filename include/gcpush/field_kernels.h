@@ -8,8 +8,8 @@
  * then fuse drift, field and kick into one loop per (form, kick), chosen
  * once per push outside the inner loop (src/pushers/fo_fused_priv.h), or
  * the stages of gc-rk4 into one loop per stage and form
- * (src/pushers/gc_rk4_fused.c, which takes the dipole's |B| and B.grad B
- * below).  The forms are vacuum fields (curl B = 0), which the fused
+ * (src/pushers/gc_rk4_fused.c, which takes the dipole's |B|, B x (B.grad B)
+ * and B.(B.grad B) below).  The forms are vacuum fields (curl B = 0), which the fused
  * guiding-centre right-hand side uses (B*_par = |B|): a form of a field
  * with currents needs its own right-hand side there.
  *
@@ -103,19 +103,22 @@ static inline GCP_HD void gcp_point_BG_dipole(double c, double x, double y, doub
     G[2][2] = a * (((pz * z + z) + z) + z);
 }
 
-/* The dipole's B, |B| and H = B.grad B, H_j = B_i dB_i/dx_j = grad(|B|^2)_j/2
- * = |B| grad|B| (what the guiding-centre right-hand side needs of the
- * field in a curl-free field, src/pushers/gc_rk4_fused.c), from
- * |B|^2 = c^2 (r^2 + 3 z^2)/r^8:
+/* What the guiding-centre right-hand side of a curl-free field needs
+ * (src/pushers/gc_rk4_fused.c), in the dipole's closed form: B, |B|, and of
+ * H = B.grad B (H_j = B_i dB_i/dx_j = grad(|B|^2)_j/2 = |B| grad|B|) the
+ * products C = B x H and P = B.H.  From |B|^2 = c^2 (r^2 + 3 z^2)/r^8,
+ * with c5 = c/r^5:
  *   |B| = |c5| r sqrt(r^2 + 3 z^2),
- *   H = -3 c5^2 ((r^2 + 4 z^2) x, (r^2 + 4 z^2) y, 4 z^2 z),   c5 = c/r^5,
- * with B as gcp_point_B_dipole, bit for bit.  |B| from its closed form
- * (its square root runs beside r's, not after B), 2 square roots and 1
- * division (B and the full gradient, then |B| from B: 2 and 2), 20
- * multiplications (37).  |B| and H equal those of the model's B and grad B
- * to round-off, not bit for bit (tests/unit/test_conformance.c). */
-static inline GCP_HD void gcp_point_BH_dipole(double c, double x, double y, double z, double B[3],
-                                              double *Bm, double H[3])
+ *   H = -3 c5^2 ((r^2 + 4 z^2) x, (r^2 + 4 z^2) y, 4 z^2 z),
+ *   C = B x H = -3 c5^3 r^2 (r^2 + z^2) (-y, x, 0)   (azimuthal),
+ *   P = B.H = 3 c5^3 z r^2 (3 r^2 + 5 z^2),
+ * and B as gcp_point_B_dipole, bit for bit.  2 square roots (|B|'s runs
+ * beside r's) and 1 division; 17 multiplications (B with the full
+ * gradient and the products formed from it: 37 + 9 and 2 divisions).
+ * |B|, C and P equal those formed from the model's B and grad B to
+ * round-off, not bit for bit (tests/unit/test_gc_fused.c). */
+static inline GCP_HD void gcp_point_gc_dipole(double c, double x, double y, double z, double B[3],
+                                              double *Bm, double C[3], double *P)
 {
     const double zz = z * z;
     double r2 = x * x + y * y + zz;
@@ -127,10 +130,11 @@ static inline GCP_HD void gcp_point_BH_dipole(double c, double x, double y, doub
     B[1] = m3z * y;
     B[2] = c5 * (r2 - 3.0 * z * z);
     *Bm = fabs(c5) * (r * q);
-    const double w = m3 * c5, z4 = 4.0 * zz, wt = w * (r2 + z4);
-    H[0] = wt * x;
-    H[1] = wt * y;
-    H[2] = (w * z4) * z;
+    const double k3r2 = m3 * c5 * c5 * r2, K = k3r2 * (r2 + zz); /* -3 c5^3 r^2 (r^2 + z^2) */
+    C[0] = -(K * y);
+    C[1] = K * x;
+    C[2] = 0.0;
+    *P = -(k3r2 * z) * (3.0 * r2 + 5.0 * zz);
 }
 
 /* Any form at one point: B [T] and E [V/m] (zeros where the form has

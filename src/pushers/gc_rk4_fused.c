@@ -21,7 +21,8 @@
  * steps lock-step would have given.
  *
  * The right-hand side is that of a curl-free field (rhs_vacuum: B*_par =
- * |B|) from B, |B| and H = B.grad B in closed form (gcp_point_BH_dipole):
+ * |B|) from B, |B|, B x H and B.H, H = B.grad B, in closed form
+ * (gcp_point_gc_dipole):
  * per stage 3 square roots and 2 divisions (block step: 3 and 3) and ~65
  * multiplications (~105), which bound the loop on this machine.  The
  * numbers differ from the block step's by round-off
@@ -43,20 +44,20 @@
 #include "gc_priv.h"
 #include "gc_rk4_priv.h"
 
-/* The form's B and H = B.grad B (field_kernels.h gcp_point_BH_dipole;
- * zero for the uniform form) and E at (x, y, z) from its parameters p
- * (form and withE constants at each call: one instance per tile
- * function). */
+/* The form's B, |B|, C = B x H and P = B.H (H = B.grad B;
+ * field_kernels.h gcp_point_gc_dipole; C = P = 0 for the uniform form) and
+ * E at (x, y, z) from its parameters p (form and withE constants at each
+ * call: one instance per tile function). */
 static inline __attribute__((always_inline)) void
-form_BHE(int form, int withE, const double *p, double x, double y, double z, double B[3],
-         double *Bm, double H[3], double E[3])
+form_gc(int form, int withE, const double *p, double x, double y, double z, double B[3],
+        double *Bm, double C[3], double *P, double E[3])
 {
     if (form == GCP_POINT_B_DIPOLE) {
-        gcp_point_BH_dipole(p[0], x, y, z, B, Bm, H);
+        gcp_point_gc_dipole(p[0], x, y, z, B, Bm, C, P);
     } else {
         B[0] = p[0], B[1] = p[1], B[2] = p[2];
         *Bm = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-        H[0] = H[1] = H[2] = 0.0;
+        C[0] = C[1] = C[2] = *P = 0.0;
     }
     E[0] = withE ? p[3] : 0.0, E[1] = withE ? p[4] : 0.0, E[2] = withE ? p[5] : 0.0;
 }
@@ -75,7 +76,8 @@ form_BG(int form, const double *p, double x, double y, double z, double B[3], do
 
 /* The guiding-centre right-hand side of kernels.h gcp_gc_rhs (Cary &
  * Brizard 2009) in a curl-free field (the forms of field_kernels.h are
- * vacuum fields), from B, H = B.grad B = |B| grad|B| and E:
+ * vacuum fields), from B, |B|, C = B x H and H.B, H = B.grad B = |B| grad|B|,
+ * and E:
  *   curl b = (b x grad|B|)/|B|,  so  b.curl b = 0  and  B*_par = |B|,
  *   B* = B + (p_par/q) (B x H)/|B|^3,
  *   E* = E - (mu/(q gamma |B|)) H = E - phi H,
@@ -84,30 +86,27 @@ form_BG(int form, const double *p, double x, double y, double z, double B[3], do
  *   dp_par/dt = (q/|B|) E*.B* = (q/|B|) (E.B* - phi H.B)
  * (H.(B x H) = 0).  One division, D = 1/(|B| gamma), gives 1/|B| = gamma D
  * and phi = mu D/q, v_par/|B| = p_par D/m; one square root (gamma; |B|
- * comes with the form); 32 multiplications without E (gcp_rk4_rhs, which
+ * comes with the form); 23 multiplications without E (gcp_rk4_rhs, which
  * takes the full gradient and keeps curl B: 68).  The numbers differ from
  * the block step's by round-off (tests/unit/test_gc_fused.c).  Returns the
  * block step's verdict: NONFINITE for a non-finite derivative, else
  * NONADIABATIC where |B| = 0 (B*_par = |B| here), else 0. */
 static inline __attribute__((always_inline)) int32_t
-rhs_vacuum(const double B[3], double Bm, const double H[3], const double E[3], int withE, double pp,
-           double mui, const struct gcp_rk4_consts *kc, double *dXo, double *dYo, double *dZo,
-           double *dpo)
+rhs_vacuum(const double B[3], double Bm, const double C[3], double HB, const double E[3],
+           int withE, double pp, double mui, const struct gcp_rk4_consts *kc, double *dXo,
+           double *dYo, double *dZo, double *dpo)
 {
-    const double Bx = B[0], By = B[1], Bz = B[2], Hx = H[0], Hy = H[1], Hz = H[2];
+    const double Bx = B[0], By = B[1], Bz = B[2], Cx = C[0], Cy = C[1], Cz = C[2];
     const double a = pp * kc->imc;
     const double gamma = sqrt(1.0 + a * a + mui * Bm * kc->k2);
     const double D = 1.0 / (Bm * gamma); /* 1/(|B| gamma) */
     const double iB = gamma * D, iB2 = iB * iB;
-    /* B x H = |B|^2 b x grad|B| */
-    const double Cx = By * Hz - Bz * Hy, Cy = Bz * Hx - Bx * Hz, Cz = Bx * Hy - By * Hx;
     /* dX/dt = al B + ce (B x H) [+ (E x B)/|B|^2] with al = v_par/|B| and
      * ce = al kap + phi/|B|^2, kap = (p_par/q)/|B|^3 (B* = B + kap B x H):
      *   ce = (D/(q |B|^2)) (p_par^2/(m |B|) + mu) */
     const double ppm = pp * kc->im, al = ppm * D;
     const double ce = D * iB2 * kc->iq * (ppm * pp * iB + mui);
     double dX = al * Bx + ce * Cx, dY = al * By + ce * Cy, dZ = al * Bz + ce * Cz;
-    const double HB = Hx * Bx + Hy * By + Hz * Bz;
     double dp;
     if (withE) {
         const double Ex = E[0], Ey = E[1], Ez = E[2];
@@ -160,9 +159,9 @@ stage(int form, int withE, int mode, struct tile_state *restrict ts, double *res
     for (size_t i = 0; i < nt; i++) {
         const double Xi = mode == ST_FIRST ? x[i] : X[i], Yi = mode == ST_FIRST ? y[i] : Y[i];
         const double Zi = mode == ST_FIRST ? z[i] : Z[i], Pi = mode == ST_FIRST ? p[i] : P[i];
-        double B[3], Bm, H[3], E[3], dX, dY, dZ, dp;
-        form_BHE(form, withE, a->p, Xi, Yi, Zi, B, &Bm, H, E);
-        const int32_t own = rhs_vacuum(B, Bm, H, E, withE, Pi, mu[i], &a->kc, &dX, &dY, &dZ, &dp);
+        double B[3], Bm, C[3], HB, E[3], dX, dY, dZ, dp;
+        form_gc(form, withE, a->p, Xi, Yi, Zi, B, &Bm, C, &HB, E);
+        const int32_t own = rhs_vacuum(B, Bm, C, HB, E, withE, Pi, mu[i], &a->kc, &dX, &dY, &dZ, &dp);
         if (mode == ST_FIRST) {
             a0[i] = dX, a1[i] = dY, a2[i] = dZ, a3[i] = dp;
             X[i] = x[i] + cn * dX, Y[i] = y[i] + cn * dY;
