@@ -35,7 +35,7 @@
  * iteration (int8_t: register spills, 50% slower).
  *
  * Where the field is one closed form (field_kernels.h), `steps` runs the
- * fused step of gc_rk4_fused.c instead (~9.3 ns in the dipole, 8192
+ * fused step of gc_rk4_fused.c instead (~8.3 ns in the dipole, 8192
  * lanes): the four stages over 128-lane tiles for several steps, the
  * form's field inline, the curl-free right-hand side. */
 #include <float.h>

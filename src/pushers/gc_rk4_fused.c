@@ -22,16 +22,17 @@
  *
  * The right-hand side is that of a curl-free field (rhs_vacuum: B*_par =
  * |B|) from B, |B|, B x H and B.H, H = B.grad B, in closed form
- * (gcp_point_gc_dipole):
- * per stage 3 square roots and 2 divisions (block step: 3 and 3) and ~65
- * multiplications (~105), which bound the loop on this machine.  The
- * numbers differ from the block step's by round-off
- * (tests/unit/test_gc_fused.c: within 4e-14 of the travel over 400 steps).
+ * (gcp_point_gc_dipole): per stage 3 square roots and 2 divisions (block
+ * step: 3 and 3) and ~53 multiplications (~105); what bounds it now is
+ * the latency of a stage's chain (sqrt, division, sqrt, division in
+ * series, ~110 cycles) against the out-of-order window: removing a square
+ * root or a tenth of the multiplications gains < 3%.  The numbers differ from the block step's by round-off
+ * (tests/unit/test_gc_fused.c: within 7e-14 of the travel over 400 steps).
  * Each stage loop keeps the verdicts in int16_t so that the vectoriser
  * takes 32 lanes per iteration (four AVX-512 vectors per operation, whose
  * independent chains hide the latency of the divisions and square roots;
  * int32_t: 16 lanes, ~35% slower; int8_t: 64 lanes, spills, ~30% slower).
- * 1 MeV protons in the dipole, one core, 8192 lanes: 9.3 ns a
+ * 1 MeV protons in the dipole, one core, 8192 lanes: 8.3 ns a
  * particle-step (the block step: 16.9; limit kernel (c): 6.6). */
 #include <float.h>
 #include <math.h>

@@ -265,9 +265,10 @@ Test(gc_fused, near_block_step_every_form)
 /* The dipole's point forms against the model's own evaluation at points
  * over 1.2 .. 8 R_E and all latitudes: B and grad B of gcp_point_BG_dipole
  * bit for bit (the fused step's adiabaticity test must give the block
- * step's verdicts); |B| and H = B.grad B of gcp_point_BH_dipole to
- * round-off: each is a product of ~10 correctly rounded operations from
- * the same inputs, so 32 eps relative to |B| and to |B| |grad B|. */
+ * step's verdicts); |B|, C = B x H and P = B.H (H = B.grad B) of
+ * gcp_point_gc_dipole against those formed from the model's B and grad B,
+ * to round-off: each side is ~10 correctly rounded operations from the
+ * same point, so 32 eps relative to |B| and to |B| |H|. */
 Test(gc_fused, dipole_point_forms)
 {
     const double RE = GCP_EARTH_RADIUS;
@@ -282,27 +283,32 @@ Test(gc_fused, dipole_point_forms)
         const double x[3] = {r * cos(lat) * cos(lon), r * cos(lat) * sin(lon), r * sin(lat)};
         struct gcp_field_sample s = {.need = GCP_NEED_B | GCP_NEED_GRADB};
         cr_assert_eq(gcp_field_eval(f, 0.0, x, &s), 0);
-        double B[3], G[3][3], Bh[3], Bm, H[3];
+        double B[3], G[3][3], Bc[3], Bm, C[3], P;
         gcp_point_BG_dipole(form.p[0], x[0], x[1], x[2], B, G);
-        gcp_point_BH_dipole(form.p[0], x[0], x[1], x[2], Bh, &Bm, H);
-        cr_expect(memcmp(B, s.B, sizeof B) == 0 && memcmp(Bh, s.B, sizeof Bh) == 0,
+        gcp_point_gc_dipole(form.p[0], x[0], x[1], x[2], Bc, &Bm, C, &P);
+        cr_expect(memcmp(B, s.B, sizeof B) == 0 && memcmp(Bc, s.B, sizeof Bc) == 0,
                   "point %d: B not bit for bit", i);
         cr_expect(memcmp(G, s.gradB, sizeof G) == 0, "point %d: grad B not bit for bit", i);
-        const double Bm0 = sqrt(s.B[0] * s.B[0] + s.B[1] * s.B[1] + s.B[2] * s.B[2]);
-        double H0[3], g2 = 0.0;
-        for (int j = 0; j < 3; j++) {
-            H0[j] = s.B[0] * s.gradB[0][j] + s.B[1] * s.gradB[1][j] + s.B[2] * s.gradB[2][j];
-            g2 += H0[j] * H0[j];
-        }
-        const double tolB = 32.0 * DBL_EPSILON * Bm0, tolH = 32.0 * DBL_EPSILON * sqrt(g2);
+        const double *b = s.B;
+        const double Bm0 = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+        double H[3];
+        for (int j = 0; j < 3; j++)
+            H[j] = b[0] * s.gradB[0][j] + b[1] * s.gradB[1][j] + b[2] * s.gradB[2][j];
+        const double C0[3] = {b[1] * H[2] - b[2] * H[1], b[2] * H[0] - b[0] * H[2],
+                              b[0] * H[1] - b[1] * H[0]};
+        const double P0 = b[0] * H[0] + b[1] * H[1] + b[2] * H[2];
+        const double tolB = 32.0 * DBL_EPSILON * Bm0;
+        const double tolH = 32.0 * DBL_EPSILON * Bm0 * sqrt(H[0] * H[0] + H[1] * H[1] + H[2] * H[2]);
         cr_expect(fabs(Bm - Bm0) <= tolB, "point %d: |B| %.17g, model %.17g", i, Bm, Bm0);
-        worst = fmax(worst, fabs(Bm - Bm0) / tolB);
+        cr_expect(fabs(P - P0) <= tolH, "point %d: B.H %.17g, model %.17g", i, P, P0);
+        worst = fmax(worst, fmax(fabs(Bm - Bm0) / tolB, fabs(P - P0) / tolH));
         for (int j = 0; j < 3; j++) {
-            cr_expect(fabs(H[j] - H0[j]) <= tolH, "point %d: H%d %.17g, model %.17g", i, j, H[j],
-                      H0[j]);
-            worst = fmax(worst, fabs(H[j] - H0[j]) / tolH);
+            cr_expect(fabs(C[j] - C0[j]) <= tolH, "point %d: (B x H)%d %.17g, model %.17g", i, j,
+                      C[j], C0[j]);
+            worst = fmax(worst, fabs(C[j] - C0[j]) / tolH);
         }
     }
-    cr_log_info("dipole point forms: largest |B|, H difference %.3g of the tolerance", worst);
+    cr_log_info("dipole point forms: largest |B|, B x H, B.H difference %.3g of the tolerance",
+                worst);
     gcp_field_free(f);
 }
