@@ -21,7 +21,7 @@
  * takes 32 lanes per iteration (four independent AVX-512 vectors per double
  * operation: their chains hide the latency of the square roots and the
  * division, as the hand kernels of the limit benchmark interleave).  The
- * right-hand side is rearranged from the scalar path's (gc_rk4_priv.h), so
+ * right-hand side is rearranged from the scalar path's (see rhs_chunk), so
  * results agree with it to round-off (tests/unit/test_gc_block.c).
  *
  * Where the time goes (1024 protons in the dipole, CPU time, ~15.8 ns a
@@ -72,8 +72,23 @@ struct rk4_chunk {
     int16_t code[CHUNK];
 };
 
-/* The right-hand side of one lane: gcp_rk4_rhs (gc_rk4_priv.h), with
- * the field's status of the lane ahead of its own verdict. */
+/* The guiding-centre right-hand side of kernels.h gcp_gc_rhs (Cary &
+ * Brizard 2009; equations in docs/DESIGN.md), rearranged so that a lane
+ * needs two square roots and one division instead of two and eight (the
+ * divider, not the multipliers, bounds a vectorised loop of gcp_gc_rhs):
+ *   Bm = |B|,  gamma = sqrt(1 + (p_par/mc)^2 + 2 mu Bm/(m c^2)),
+ *   B*_par = b.B* = Bm + (p_par/q) B.curl B / Bm^2,  so with
+ *   S = B*_par Bm^2 = Bm^3 + (p_par/q) B.curl B  and  D = 1/(Bm gamma S):
+ *   1/Bm = gamma S D,  1/gamma = Bm S D,  1/B*_par = Bm^2 Bm gamma D.
+ * Constants (1/q, 1/(mc), 1/m) are reciprocals taken once.  The results
+ * differ from gcp_gc_rhs by round-off (a few ulp per evaluation); the
+ * edge cases keep their verdicts: B = 0 or B*_par = 0 give an infinite D,
+ * hence NaN (NONFINITE, as gcp_gc_rhs's inf/NaN), B*_par < 0 gives S < 0
+ * (NONADIABATIC).  Writes k (dX/dt, dp_par/dt) and the verdict of
+ * gcp_gc_eval without the adiabaticity test: the field's status, else
+ * NONFINITE for a non-finite derivative, else NONADIABATIC where B*_par <= 0
+ * or |B| = 0.  withE is a constant at each call.  The constants:
+ * struct gcp_rk4_consts (gc_rk4_priv.h). */
 
 /* What to do with the derivative of a stage (constant at each call):
  * STORE it in c->k with the verdict in c->code (stage 1), or, in stages 2
@@ -94,15 +109,44 @@ rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
     const double w = fu ? fu->w : 0.0, cn = fu ? fu->cn : 0.0;
     const double *restrict x0 = fu ? fu->x0 : NULL, *restrict y0 = fu ? fu->y0 : NULL;
     const double *restrict z0 = fu ? fu->z0 : NULL, *restrict p0 = fu ? fu->p0 : NULL;
+    const double iq = kc->iq, q = kc->q, imc = kc->imc, k2 = kc->k2, im = kc->im;
     for (size_t i = 0; i < m; i++) {
-        const double G[3][3] = {{c->G[0][0][i], c->G[0][1][i], c->G[0][2][i]},
-                                {c->G[1][0][i], c->G[1][1][i], c->G[1][2][i]},
-                                {c->G[2][0][i], c->G[2][1][i], c->G[2][2][i]}};
-        double dX, dY, dZ, dp;
-        const int32_t own = gcp_rk4_rhs(c->B[0][i], c->B[1][i], c->B[2][i], G,
-                                        withE ? c->E[0][i] : 0.0, withE ? c->E[1][i] : 0.0,
-                                        withE ? c->E[2][i] : 0.0, withE, c->P[i], mu[i], kc,
-                                        &dX, &dY, &dZ, &dp);
+        const double Bx = c->B[0][i], By = c->B[1][i], Bz = c->B[2][i];
+        const double G00 = c->G[0][0][i], G01 = c->G[0][1][i], G02 = c->G[0][2][i];
+        const double G10 = c->G[1][0][i], G11 = c->G[1][1][i], G12 = c->G[1][2][i];
+        const double G20 = c->G[2][0][i], G21 = c->G[2][1][i], G22 = c->G[2][2][i];
+        const double pp = c->P[i], mui = mu[i];
+        const double B2 = Bx * Bx + By * By + Bz * Bz;
+        const double Bm = sqrt(B2);
+        const double a = pp * imc;
+        const double gamma = sqrt(1.0 + a * a + mui * Bm * k2);
+        const double rq = pp * iq;
+        /* curl B and B.curl B */
+        const double cx = G21 - G12, cy = G02 - G20, cz = G10 - G01;
+        const double S = B2 * Bm + rq * (Bx * cx + By * cy + Bz * cz);
+        const double D = 1.0 / (Bm * gamma * S);
+        const double iB = gamma * S * D, ig = Bm * S * D, iBs = B2 * Bm * gamma * D;
+        const double bx = Bx * iB, by = By * iB, bz = Bz * iB;
+        /* grad |B|_j = b_i dB_i/dx_j */
+        const double gx = bx * G00 + by * G10 + bz * G20;
+        const double gy = bx * G01 + by * G11 + bz * G21;
+        const double gz = bx * G02 + by * G12 + bz * G22;
+        const double rqiB = rq * iB;
+        const double Bsx = Bx + rqiB * (cx + (by * gz - bz * gy));
+        const double Bsy = By + rqiB * (cy + (bz * gx - bx * gz));
+        const double Bsz = Bz + rqiB * (cz + (bx * gy - by * gx));
+        const double f = mui * iq * ig;
+        const double Esx = (withE ? c->E[0][i] : 0.0) - f * gx;
+        const double Esy = (withE ? c->E[1][i] : 0.0) - f * gy;
+        const double Esz = (withE ? c->E[2][i] : 0.0) - f * gz;
+        const double vpar = pp * im * ig;
+        const double dX = (vpar * Bsx + (Esy * bz - Esz * by)) * iBs;
+        const double dY = (vpar * Bsy + (Esz * bx - Esx * bz)) * iBs;
+        const double dZ = (vpar * Bsz + (Esx * by - Esy * bx)) * iBs;
+        const double dp = q * (Esx * Bsx + Esy * Bsy + Esz * Bsz) * iBs;
+        const int32_t nonfinite = !(fabs(dX + dY + dZ + dp) <= DBL_MAX);
+        const int32_t bad = !(S > 0.0) | !(B2 > 0.0);
+        const int32_t own = nonfinite * GCP_NONFINITE + (1 - nonfinite) * bad * GCP_NONADIABATIC;
         const int32_t fs = c->fs[i];
         const int32_t code = fs + (fs == 0) * own;
         if (mode == RHS_STORE) {
@@ -324,7 +368,7 @@ static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
 
 /* gcp_evolve_gc_check over the block (the start-of-step check of the
  * per-lane guiding-centre methods whose step is a block solve, gc_lanes.c):
- * stage 1's evaluation, whose verdicts are gcp_gc_eval's (gc_rk4_priv.h),
+ * stage 1's evaluation, whose verdicts are gcp_gc_eval's (see rhs_chunk),
  * without keeping k1. */
 int32_t gcp_gc_check_block(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
                            double t, int first)
