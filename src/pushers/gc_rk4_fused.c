@@ -87,8 +87,9 @@ form_BG(int form, const double *p, double x, double y, double z, double B[3], do
  *   dp_par/dt = (q/|B|) E*.B* = (q/|B|) (E.B* - phi H.B)
  * (H.(B x H) = 0).  One division, D = 1/(|B| gamma), gives 1/|B| = gamma D
  * and phi = mu D/q, v_par/|B| = p_par D/m; one square root (gamma; |B|
- * comes with the form); 23 multiplications without E (gcp_rk4_rhs, which
- * takes the full gradient and keeps curl B: 68).  The numbers differ from
+ * comes with the form); 23 multiplications without E (the block step's
+ * rhs_chunk, gc_rk4.c, which takes the full gradient and keeps curl B:
+ * 68).  The numbers differ from
  * the block step's by round-off (tests/unit/test_gc_fused.c).  Returns the
  * block step's verdict: NONFINITE for a non-finite derivative, else
  * NONADIABATIC where |B| = 0 (B*_par = |B| here), else 0. */
@@ -127,8 +128,8 @@ rhs_vacuum(const double B[3], double Bm, const double C[3], double HB, const dou
     return nonfinite * GCP_NONFINITE + (1 - nonfinite) * bad * GCP_NONADIABATIC;
 }
 
-/* The stages.  FIRST: at the step's start state (x .. p), k1 into acc
- * (0 + 1 k1, as the block step), the next stage's state y + (h/2) k1 into
+/* The stages.  FIRST: at the step's start state (x .. p), k1 into acc,
+ * the next stage's state y + (h/2) k1 into
  * the tile arrays S, its verdict into code; returns non-zero when a lane's
  * verdict is.  MID: at S, acc += w k, S = y + cn k, verdicts merged.
  * LAST: at S, acc += k, y += (h/6) acc, the verdicts merged and written to
