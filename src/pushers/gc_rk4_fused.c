@@ -193,20 +193,26 @@ stage(int form, int withE, int mode, struct tile_state *restrict ts, double *res
     return any;
 }
 
-/* gc_rk4.c's adiabaticity_chunk on the tile (opts->adiabaticity_max > 0):
- * lanes whose stage-1 verdict is 0 but exceed amax at the step's start. */
+/* gc_rk4.c's adiabaticity_chunk on the tile (opts->adiabaticity_max > 0),
+ * vectorised: lanes whose stage-1 verdict is 0 but exceed amax at the
+ * step's start become NONADIABATIC (gcp_gc_adiabaticity_of on the form's B
+ * and grad B, the model's numbers: the block step's verdicts). */
 static inline __attribute__((always_inline)) int32_t
-adiabaticity_tile(int form, struct tile_state *ts, const double *x, const double *y,
-                  const double *z, const double *p, const double *mu, size_t nt,
-                  const struct gcp_rk4_tile_args *a)
+adiabaticity_tile(int form, struct tile_state *restrict ts, const double *restrict x,
+                  const double *restrict y, const double *restrict z, const double *restrict p,
+                  const double *restrict mu, size_t nt, const struct gcp_rk4_tile_args *pa)
 {
+    const struct gcp_rk4_tile_args A = *pa;
+    int16_t *restrict code = ts->code;
     int32_t any = 0;
     for (size_t i = 0; i < nt; i++) {
-        if (ts->code[i]) continue;
-        struct gcp_field_sample s;
-        form_BG(form, a->p, x[i], y[i], z[i], s.B, s.gradB);
-        if (!(gcp_gc_adiabaticity_sample(&s, p[i], mu[i], a->q, a->m) <= a->amax))
-            ts->code[i] = GCP_NONADIABATIC, any = 1;
+        double B[3], G[3][3];
+        form_BG(form, A.p, x[i], y[i], z[i], B, G);
+        const int32_t over = !(gcp_gc_adiabaticity_of(B, G, p[i], mu[i], A.q, A.m) <= A.amax);
+        const int32_t c0 = code[i];
+        const int32_t cv = c0 + (c0 == 0) * over * GCP_NONADIABATIC;
+        code[i] = (int16_t)cv;
+        any |= cv;
     }
     return any;
 }
