@@ -6,7 +6,12 @@
  * these forms says so through gcp_field_type.point_B (field.h): it fills a
  * struct gcp_point_B with the form id and its parameters.  A pusher can
  * then fuse drift, field and kick into one loop per (form, kick), chosen
- * once per push outside the inner loop (src/pushers/fo_fused_priv.h).
+ * once per push outside the inner loop (src/pushers/fo_fused_priv.h), or
+ * the stages of gc-rk4 into one loop per stage and form
+ * (src/pushers/gc_rk4_fused.c, which takes the dipole's |B|, B x (B.grad B)
+ * and B.(B.grad B) below).  The forms are vacuum fields (curl B = 0), which the fused
+ * guiding-centre right-hand side uses (B*_par = |B|): a form of a field
+ * with currents needs its own right-hand side there.
  *
  * Which layer knows what (docs/DESIGN.md, "Point field kernels"):
  *  - this header knows formulas, not models: "a centred dipole c (-3 z x +
@@ -68,6 +73,70 @@ static inline GCP_HD void gcp_point_B_dipole(double c, double x, double y, doubl
     *bz = c5 * (r2 - 3.0 * z * z);
 }
 
+/* The dipole's B and its gradient G_ij = dB_i/dx_j (what the guiding
+ * centre needs: gcp_gc_rhs), differentiating B above:
+ *   G_ij = -3 c/r^5 [ z d_ij + x_i d_jz + x_j d_iz - 5 z x_i x_j / r^2 ],
+ * symmetric (curl B = 0) and traceless (div B = 0), written out per
+ * component, G_ij = a (-zf x_i x_j [+ z if i = j] [+ x_i if j = z]
+ * [+ x_j if i = z]) with a = -3 c/r^5, zf = 5 z/r^2, in the operations and
+ * order of fields/dipole.c's eval and block evaluation (bit-identical).
+ * 1 square root and 2 divisions. */
+static inline GCP_HD void gcp_point_BG_dipole(double c, double x, double y, double z,
+                                              double B[3], double G[3][3])
+{
+    double r2 = x * x + y * y + z * z;
+    r2 = r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
+    const double c5 = c / (r2 * r2 * sqrt(r2));
+    const double a = -3.0 * c5, zf = 5.0 * z / r2;
+    B[0] = a * z * x;
+    B[1] = a * z * y;
+    B[2] = c5 * (r2 - 3.0 * z * z);
+    const double px = -zf * x, py = -zf * y, pz = -zf * z;
+    G[0][0] = a * (px * x + z);
+    G[0][1] = a * (px * y);
+    G[0][2] = a * (px * z + x);
+    G[1][0] = a * (py * x);
+    G[1][1] = a * (py * y + z);
+    G[1][2] = a * (py * z + y);
+    G[2][0] = a * (pz * x + x);
+    G[2][1] = a * (pz * y + y);
+    G[2][2] = a * (((pz * z + z) + z) + z);
+}
+
+/* What the guiding-centre right-hand side of a curl-free field needs
+ * (src/pushers/gc_rk4_fused.c), in the dipole's closed form: B, |B|, and of
+ * H = B.grad B (H_j = B_i dB_i/dx_j = grad(|B|^2)_j/2 = |B| grad|B|) the
+ * products C = B x H and P = B.H.  From |B|^2 = c^2 (r^2 + 3 z^2)/r^8,
+ * with c5 = c/r^5:
+ *   |B| = |c5| r sqrt(r^2 + 3 z^2),
+ *   H = -3 c5^2 ((r^2 + 4 z^2) x, (r^2 + 4 z^2) y, 4 z^2 z),
+ *   C = B x H = -3 c5^3 r^2 (r^2 + z^2) (-y, x, 0)   (azimuthal),
+ *   P = B.H = 3 c5^3 z r^2 (3 r^2 + 5 z^2),
+ * and B as gcp_point_B_dipole, bit for bit.  2 square roots (|B|'s runs
+ * beside r's) and 1 division; 17 multiplications (B with the full
+ * gradient and the products formed from it: 37 + 9 and 2 divisions).
+ * |B|, C and P equal those formed from the model's B and grad B to
+ * round-off, not bit for bit (tests/unit/test_gc_fused.c). */
+static inline GCP_HD void gcp_point_gc_dipole(double c, double x, double y, double z, double B[3],
+                                              double *Bm, double C[3], double *P)
+{
+    const double zz = z * z;
+    double r2 = x * x + y * y + zz;
+    r2 = r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
+    const double r = sqrt(r2), q = sqrt(r2 + 3.0 * zz);
+    const double c5 = c / (r2 * r2 * r);
+    const double m3 = -3.0 * c5, m3z = m3 * z;
+    B[0] = m3z * x;
+    B[1] = m3z * y;
+    B[2] = c5 * (r2 - 3.0 * z * z);
+    *Bm = fabs(c5) * (r * q);
+    const double k3r2 = m3 * c5 * c5 * r2, K = k3r2 * (r2 + zz); /* -3 c5^3 r^2 (r^2 + z^2) */
+    C[0] = -(K * y);
+    C[1] = K * x;
+    C[2] = 0.0;
+    *P = -(k3r2 * z) * (3.0 * r2 + 5.0 * zz);
+}
+
 /* Any form at one point: B [T] and E [V/m] (zeros where the form has
  * none).  A switch per call: for checks and scalar use; the fused loops
  * instantiate one form each instead. */
@@ -86,6 +155,15 @@ static inline GCP_HD void gcp_point_B_eval(const struct gcp_point_B *f, double x
     default:
         B[0] = B[1] = B[2] = 0.0;
     }
+}
+
+/* The same with grad B [T/m] (zero for the uniform form). */
+static inline GCP_HD void gcp_point_BG_eval(const struct gcp_point_B *f, double x, double y,
+                                            double z, double B[3], double G[3][3], double E[3])
+{
+    gcp_point_B_eval(f, x, y, z, B, E);
+    for (int i = 0; i < 3; i++) G[i][0] = G[i][1] = G[i][2] = 0.0;
+    if (f->form == GCP_POINT_B_DIPOLE) gcp_point_BG_dipole(f->p[0], x, y, z, B, G);
 }
 
 #endif /* GCPUSH_FIELD_KERNELS_H */

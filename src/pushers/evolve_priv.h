@@ -80,19 +80,21 @@ struct gcp_stepper {
      * reason: gcp_lane_fail).  Returns non-zero when any lane failed. */
     int32_t (*step)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
                     double t, double h);
-    /* Optional, for steppers without `start`, tried before `step`: up to
-     * kmax steps of size h from t at once (issue 12: fused steps that keep
-     * a tile of lanes in L1 for several steps, fo_fused_priv.h).  Returns
-     * kd, 1 <= kd <= kmax, when it took them: every live lane has taken kd
-     * steps, none would have stopped by gcp_block_classify after steps
-     * 1 .. kd-1, and b->fstatus holds the field's verdict of step kd -- the
-     * state lock-step would reach; 0 when it cannot (then `step` runs).
+    /* Optional, tried before `start` and `step`: up to kmax steps of size
+     * h from t at once (issue 12: fused steps that keep a tile of lanes in
+     * L1 for several steps, fo_fused_priv.h, gc_rk4_fused.c).  Returns kd,
+     * 1 <= kd <= kmax, when it took them: every live lane has taken kd
+     * steps, none would have stopped by `start` at steps 1 .. kd nor by
+     * gcp_block_classify after steps 1 .. kd-1, and b->fstatus holds the
+     * verdict of step kd -- the state lock-step would reach; 0 when it
+     * cannot, the block untouched (then `start` and `step` run).
      * *stops = 0 (when it took them) says more: it tested every lane after
      * step kd with the classification's own test (gcp_lane_stops) and the
      * field gives no verdict, and none stops -- the layer then skips its
      * classification pass (the live lanes stay ALIVE), and b->fstatus need
-     * not be written.  Never fails a lane.  The evolve layer bounds kmax by
-     * the push's end and the next sampling step. */
+     * not be written; a stepper that does not test sets *stops = 1.  Never
+     * fails a lane.  The evolve layer bounds kmax by the push's end and the
+     * next sampling step. */
     int64_t (*steps)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
                      double t, double h, int64_t kmax, int32_t *stops);
     /* Or the same for one lane with its state (used when step is NULL):
@@ -171,8 +173,18 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
     int64_t k = 0;
     for (; k < o->nsteps && n > 0; k++) {
         double t = o->t0 + (double)k * h;
+        /* several steps at once: k and t move to the last of them, which
+         * is then classified (and sampled) as any single step */
+        int64_t kd = 0;
+        int32_t stops = 1; /* 0: the stepper's `steps` found no lane to stop */
+        if (st->steps) {
+            int64_t kmax = o->nsteps - k;
+            if (every && every - k % every < kmax) kmax = every - k % every;
+            kd = st->steps(&ev, ctx, b, n, t, h, kmax, &stops);
+            if (kd > 1) k += kd - 1, t = o->t0 + (double)k * h;
+        }
         /* the start of the step: stopped lanes leave with its state and time */
-        if (st->start) {
+        if (kd == 0 && st->start) {
             while (n > 0 && st->start(&ev, ctx, b, n, t, k == 0)) {
                 if (!gcp_block_classify(b, n, f, gc)) break;
                 n = gcp_evolve_retire(b, L, sz, tmp, n, t, k);
@@ -182,16 +194,6 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
             if (n == 0) break;
         }
         int32_t failed = 0;
-        /* several steps at once: k and t move to the last of them, which
-         * is then classified (and sampled) as any single step */
-        int64_t kd = 0;
-        int32_t stops = 1; /* 0: the stepper's `steps` found no lane to stop */
-        if (st->steps && !st->start) {
-            int64_t kmax = o->nsteps - k;
-            if (every && every - k % every < kmax) kmax = every - k % every;
-            kd = st->steps(&ev, ctx, b, n, t, h, kmax, &stops);
-            if (kd > 1) k += kd - 1, t = o->t0 + (double)k * h;
-        }
         if (kd > 0) {
             /* taken */
         } else if (st->step) {

@@ -32,24 +32,7 @@ static void cross3(const double a[3], const double b[3], double c[3])
 double gcp_gc_adiabaticity_sample(const struct gcp_field_sample *s, double ppar, double mu, double q,
                               double m)
 {
-    const double Bm = sqrt(dot3(s->B, s->B));
-    if (!(Bm > 0.0)) return INFINITY;
-    const double b[3] = {s->B[0] / Bm, s->B[1] / Bm, s->B[2] / Bm};
-    double gB[3], Gb[3];
-    for (int j = 0; j < 3; j++) {
-        gB[j] = b[0] * s->gradB[0][j] + b[1] * s->gradB[1][j] + b[2] * s->gradB[2][j];
-        Gb[j] = s->gradB[j][0] * b[0] + s->gradB[j][1] * b[1] + s->gradB[j][2] * b[2];
-    }
-    const double bg = dot3(b, gB);
-    double k[3];
-    for (int i = 0; i < 3; i++) k[i] = (Gb[i] - b[i] * bg) / Bm;
-    const double pperp2 = 2.0 * m * fmax(mu, 0.0) * Bm;
-    const double qB = fabs(q) * Bm;
-    const double rho_perp = sqrt(pperp2) / qB;
-    const double rho = sqrt(ppar * ppar + pperp2) / qB;
-    const double e1 = rho_perp * sqrt(dot3(gB, gB)) / Bm;
-    const double e2 = rho * sqrt(dot3(k, k));
-    return e1 > e2 ? e1 : e2;
+    return gcp_gc_adiabaticity_of(s->B, s->gradB, ppar, mu, q, m);
 }
 
 int gcp_gc_eval(const struct gcp_field *f, double t, double q, double m, const double X[3],

@@ -2,6 +2,7 @@
 #ifndef GCPUSH_GC_PRIV_H
 #define GCPUSH_GC_PRIV_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -18,6 +19,35 @@ static inline unsigned gc_need(const struct gcp_field *f)
 /* Adiabaticity measure (see gcp_gc_adiabaticity) from one field sample. */
 double gcp_gc_adiabaticity_sample(const struct gcp_field_sample *s, double ppar, double mu, double q,
                               double m);
+
+/* Its arithmetic, from B [T] and G_ij = dB_i/dx_j [T/m], without a branch
+ * (|B| = 0 or NaN selects inf at the end), so that a loop of it
+ * vectorises (the fused gc-rk4 step's start-of-step check): the same
+ * numbers as gcp_gc_adiabaticity_sample, which calls it.
+ *   eps = max(rho_perp |grad B|/B, rho |kappa|),
+ *   kappa_i = b_j d_j b_i = (G b)_i / B - b_i (b.grad B) / B. */
+static inline __attribute__((always_inline)) double
+gcp_gc_adiabaticity_of(const double B[3], const double G[3][3], double ppar, double mu, double q,
+                       double m)
+{
+    const double Bm = sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2]);
+    const double b[3] = {B[0] / Bm, B[1] / Bm, B[2] / Bm};
+    double gB[3], Gb[3], k[3];
+    for (int j = 0; j < 3; j++) {
+        gB[j] = b[0] * G[0][j] + b[1] * G[1][j] + b[2] * G[2][j];
+        Gb[j] = G[j][0] * b[0] + G[j][1] * b[1] + G[j][2] * b[2];
+    }
+    const double bg = b[0] * gB[0] + b[1] * gB[1] + b[2] * gB[2];
+    for (int i = 0; i < 3; i++) k[i] = (Gb[i] - b[i] * bg) / Bm;
+    const double pperp2 = 2.0 * m * (mu > 0.0 ? mu : 0.0) * Bm;
+    const double qB = fabs(q) * Bm;
+    const double rho_perp = sqrt(pperp2) / qB;
+    const double rho = sqrt(ppar * ppar + pperp2) / qB;
+    const double e1 = rho_perp * sqrt(gB[0] * gB[0] + gB[1] * gB[1] + gB[2] * gB[2]) / Bm;
+    const double e2 = rho * sqrt(k[0] * k[0] + k[1] * k[1] + k[2] * k[2]);
+    const double e = e1 > e2 ? e1 : e2;
+    return Bm > 0.0 ? e : INFINITY;
+}
 
 /* One GC evaluation at (t, X, ppar): field, right-hand side, and the
  * validity check.  Returns 0, the field's status, GCP_NONFINITE for a

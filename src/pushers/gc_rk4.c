@@ -21,7 +21,7 @@
  * takes 32 lanes per iteration (four independent AVX-512 vectors per double
  * operation: their chains hide the latency of the square roots and the
  * division, as the hand kernels of the limit benchmark interleave).  The
- * right-hand side is rearranged from the scalar path's (see rhs_consts), so
+ * right-hand side is rearranged from the scalar path's (see rhs_chunk), so
  * results agree with it to round-off (tests/unit/test_gc_block.c).
  *
  * Where the time goes (1024 protons in the dipole, CPU time, ~15.8 ns a
@@ -32,18 +32,25 @@
  * and retire ~0.4 ns.  Measured and not kept: fusing the field evaluation
  * into the right-hand-side loop (no gain), CHUNK 32 .. 256 (96 and 128
  * best), FMA contraction (~3-6%, moves the last bits), 64 lanes per
- * iteration (int8_t: register spills, 50% slower). */
+ * iteration (int8_t: register spills, 50% slower).
+ *
+ * Where the field is one closed form (field_kernels.h), `steps` runs the
+ * fused step of gc_rk4_fused.c instead (~8.3 ns in the dipole, 8192
+ * lanes): the four stages over 128-lane tiles for several steps, the
+ * form's field inline, the curl-free right-hand side. */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "gcpush/field_kernels.h"
 #include "gcpush/gc.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "block_priv.h"
 #include "evolve_priv.h"
 #include "gc_priv.h"
+#include "gc_rk4_priv.h"
 
 /* Lanes per chunk: ~30 arrays of CHUNK doubles of stage scratch (24 kB). */
 #define CHUNK 96
@@ -80,14 +87,8 @@ struct rk4_chunk {
  * (NONADIABATIC).  Writes k (dX/dt, dp_par/dt) and the verdict of
  * gcp_gc_eval without the adiabaticity test: the field's status, else
  * NONFINITE for a non-finite derivative, else NONADIABATIC where B*_par <= 0
- * or |B| = 0.  withE is a constant at each call. */
-struct rhs_consts {
-    double iq;  /* [1/C] 1/q */
-    double q;   /* [C] */
-    double imc; /* [s/(kg m)] 1/(m c) */
-    double k2;  /* [1/J] 2/(m c^2), times mu B [J] */
-    double im;  /* [1/kg] 1/m */
-};
+ * or |B| = 0.  withE is a constant at each call.  The constants:
+ * struct gcp_rk4_consts (gc_rk4_priv.h). */
 
 /* What to do with the derivative of a stage (constant at each call):
  * STORE it in c->k with the verdict in c->code (stage 1), or, in stages 2
@@ -103,7 +104,7 @@ struct rhs_fuse {
 
 static inline __attribute__((always_inline)) void
 rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
-          const struct rhs_consts *kc, int withE, int mode, const struct rhs_fuse *fu)
+          const struct gcp_rk4_consts *kc, int withE, int mode, const struct rhs_fuse *fu)
 {
     const double w = fu ? fu->w : 0.0, cn = fu ? fu->cn : 0.0;
     const double *restrict x0 = fu ? fu->x0 : NULL, *restrict y0 = fu ? fu->y0 : NULL;
@@ -171,7 +172,7 @@ rhs_chunk(struct rk4_chunk *restrict c, size_t m, const double *restrict mu,
 /* Field and right-hand side at the chunk's stage state (time t); mode and
  * fu as in rhs_chunk, each combination with E or without its own loop. */
 static void stage_eval(struct rk4_chunk *c, size_t m, const struct gcp_field *f, double t,
-                       unsigned need, const double *mu, const struct rhs_consts *kc, int mode,
+                       unsigned need, const double *mu, const struct gcp_rk4_consts *kc, int mode,
                        const struct rhs_fuse *fu)
 {
     const struct gcp_field_soa o = {{c->B[0], c->B[1], c->B[2]},
@@ -215,7 +216,7 @@ static void adiabaticity_chunk(struct rk4_chunk *c, size_t m, const double *mu, 
  * b->fstatus.  Returns non-zero when any lane failed. */
 static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double *k1,
                       const struct gcp_field *f, double t, unsigned need, double amax,
-                      const struct rhs_consts *kc)
+                      const struct gcp_rk4_consts *kc)
 {
     const size_t N = b->n;
     int32_t any = 0;
@@ -240,7 +241,7 @@ static int32_t stage1(struct gcp_block *b, size_t n, struct rk4_chunk *c, double
 /* Stages 2 to 4 and the update of the chunk of lanes [i0, i0 + m). */
 static void stages234(struct gcp_block *b, size_t i0, size_t m, struct rk4_chunk *restrict c,
                       const double *k1, const struct gcp_field *f, double t, double h,
-                      unsigned need, const struct rhs_consts *kc)
+                      unsigned need, const struct gcp_rk4_consts *kc)
 {
     const size_t N = b->n;
     /* One restrict pointer per state array, for the reads and the update:
@@ -294,26 +295,81 @@ static struct rk4_chunk *rk4_chunk_of(const struct gcp_evolve *ev, const struct 
     return (struct rk4_chunk *)((unsigned char *)ev->work + rk4_chunk_offset(b->n));
 }
 
-static int32_t rk4_start(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+/* The push's constants and, where the field is a closed form, the fused
+ * step (gc_rk4_fused.c). */
+struct rk4_ctx {
+    struct gcp_rk4_consts kc;
+    gcp_rk4_tile_fn tile;          /* NULL: the block step */
+    struct gcp_rk4_tile_args targs;
+    double *save;                  /* [4 b->n] the block's X, p_par at the start of rk4_steps */
+    int64_t *done;                 /* [tiles] steps each tile took */
+};
+
+static int32_t rk4_start(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                          double t, int first)
 {
+    const struct rk4_ctx *c = vctx;
     (void)first; /* k1 is needed at every step */
     return stage1(b, n, rk4_chunk_of(ev, b), ev->work, ev->f, t, ev->need,
-                  ev->o->adiabaticity_max, ctx);
+                  ev->o->adiabaticity_max, &c->kc);
 }
 
-static int32_t rk4_step(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+static int32_t rk4_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                         double t, double h)
 {
+    const struct rk4_ctx *rc = vctx;
     struct rk4_chunk *c = rk4_chunk_of(ev, b);
     for (size_t i0 = 0; i0 < n; i0 += CHUNK)
-        stages234(b, i0, n - i0 < CHUNK ? n - i0 : CHUNK, c, ev->work, ev->f, t, h, ev->need, ctx);
+        stages234(b, i0, n - i0 < CHUNK ? n - i0 : CHUNK, c, ev->work, ev->f, t, h, ev->need,
+                  &rc->kc);
     return 0;
+}
+
+/* Up to kmax fused steps, tile by tile (gc_rk4_fused.c), in place of the
+ * start-of-step check and the step (the evolve layer's `steps`): each tile
+ * runs until kmax, or until a step whose start check stops one of its lanes
+ * (it stops before that step), or the first step after which one stops; the
+ * block takes the fewest steps any tile took, kd, and tiles that ran past
+ * kd are restored from `save` and run again to kd (the same arithmetic, so
+ * every lane holds exactly its lock-step state after kd steps).  kd = 0
+ * (a lane stops at the start of the first step): every tile is restored
+ * and the start check and block step run instead, which retire the lane. */
+static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
+                         double t, double h, int64_t kmax, int32_t *stops)
+{
+    struct rk4_ctx *c = vctx;
+    (void)ev, (void)t, (void)h;
+    *stops = 1; /* the evolve layer classifies after the steps, as after one */
+    if (!c->tile) return 0;
+    double *a[4] = {b->x, b->y, b->z, b->ppar};
+    for (int k = 0; k < 4; k++) memcpy(c->save + (size_t)k * b->n, a[k], n * sizeof(double));
+    int64_t kd = kmax;
+    size_t tile = 0;
+    for (size_t i0 = 0; i0 < n; i0 += GCP_RK4_TILE, tile++) {
+        const size_t nt = n - i0 < GCP_RK4_TILE ? n - i0 : GCP_RK4_TILE;
+        const int64_t k = c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, b->mu + i0,
+                                  b->fstatus + i0, nt, kd, &c->targs);
+        c->done[tile] = k;
+        if (k < kd) kd = k;
+    }
+    if (kd < kmax) {
+        tile = 0;
+        for (size_t i0 = 0; i0 < n; i0 += GCP_RK4_TILE, tile++) {
+            if (c->done[tile] == kd) continue;
+            const size_t nt = n - i0 < GCP_RK4_TILE ? n - i0 : GCP_RK4_TILE;
+            for (int k = 0; k < 4; k++)
+                memcpy(a[k] + i0, c->save + (size_t)k * b->n + i0, nt * sizeof(double));
+            if (kd > 0)
+                c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, b->mu + i0, b->fstatus + i0,
+                        nt, kd, &c->targs);
+        }
+    }
+    return kd;
 }
 
 /* gcp_evolve_gc_check over the block (the start-of-step check of the
  * per-lane guiding-centre methods whose step is a block solve, gc_lanes.c):
- * stage 1's evaluation, whose verdicts are gcp_gc_eval's (see rhs_consts),
+ * stage 1's evaluation, whose verdicts are gcp_gc_eval's (see rhs_chunk),
  * without keeping k1. */
 int32_t gcp_gc_check_block(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
                            double t, int first)
@@ -321,7 +377,7 @@ int32_t gcp_gc_check_block(const struct gcp_evolve *ev, void *ctx, struct gcp_bl
     (void)ctx;
     if (first) return 0;
     const double mc = b->m * GCP_C_LIGHT, amax = ev->o->adiabaticity_max;
-    const struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT),
+    const struct gcp_rk4_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT),
                                   1.0 / b->m};
     struct rk4_chunk *c = aligned_alloc(64, (sizeof *c + 63) / 64 * 64);
     if (!c) return gcp_evolve_gc_check(ev, ctx, b, n, t, first);
@@ -335,6 +391,7 @@ static const struct gcp_stepper rk4_stepper = {
     .work_size = rk4_work_size,
     .start = rk4_start,
     .step = rk4_step,
+    .steps = rk4_steps,
 };
 
 static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
@@ -343,8 +400,27 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
 {
     (void)p;
     const double mc = b->m * GCP_C_LIGHT;
-    struct rhs_consts kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT), 1.0 / b->m};
-    return gcp_evolve_inline(b, f, o, s, &rk4_stepper, &kc);
+    struct rk4_ctx c = {.kc = {1.0 / b->q, b->q, 1.0 / mc, 2.0 / (mc * GCP_C_LIGHT), 1.0 / b->m}};
+    /* The fused step where the field is a closed form (never asked which
+     * model it is: field_kernels.h); without memory for the restore, the
+     * block step. */
+    struct gcp_point_B form;
+    if (gcp_field_point_B(f, &form) && form.has_E == (f->has_E != 0))
+        c.tile = gcp_rk4_fused_tile(form.form, form.has_E);
+    if (c.tile) {
+        c.targs = (struct gcp_rk4_tile_args){.kc = c.kc, .h = o->dt,
+                                             .rin2 = f->r_inner * f->r_inner,
+                                             .rout2 = f->r_outer * f->r_outer, .zmax = f->z_max,
+                                             .amax = o->adiabaticity_max, .q = b->q, .m = b->m};
+        memcpy(c.targs.p, form.p, sizeof form.p);
+        c.save = malloc(4 * (b->n + 1) * sizeof(double));
+        c.done = malloc((b->n / GCP_RK4_TILE + 1) * sizeof(int64_t));
+        if (!c.save || !c.done) free(c.save), free(c.done), c.save = NULL, c.done = NULL, c.tile = NULL;
+    }
+    const size_t live = gcp_evolve_inline(b, f, o, s, &rk4_stepper, &c);
+    free(c.save);
+    free(c.done);
+    return live;
 }
 
 const struct gcp_pusher_type gcp_pusher_gc_rk4 = {

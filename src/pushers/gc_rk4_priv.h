@@ -1,0 +1,42 @@
+/* Private to gc-rk4: its constants and the fused step of the closed-form
+ * fields (gc_rk4_fused.c), which gc_rk4.c's stepper calls. */
+#ifndef GCPUSH_GC_RK4_PRIV_H
+#define GCPUSH_GC_RK4_PRIV_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Constants of the right-hand side, reciprocals taken once per push. */
+struct gcp_rk4_consts {
+    double iq;  /* [1/C] 1/q */
+    double q;   /* [C] */
+    double imc; /* [s/(kg m)] 1/(m c) */
+    double k2;  /* [1/J] 2/(m c^2), times mu B [J] */
+    double im;  /* [1/kg] 1/m */
+};
+
+/* The fused step (gc_rk4_fused.c): up to kmax steps of the lanes [0, nt)
+ * of one tile (arrays at the tile's first lane, nt <= GCP_RK4_TILE) in a
+ * closed-form field.  Returns the steps taken: kmax, or s where the
+ * start-of-step check of step s + 1 stops a lane (the tile then holds the
+ * state after s steps; s = 0: nothing moved), or s where the
+ * classification after step s stops one (gcp_block_classify's verdict).
+ * fst holds the verdict of the last step taken (s >= 1). */
+#define GCP_RK4_TILE 128
+struct gcp_rk4_tile_args {
+    struct gcp_rk4_consts kc;
+    double h;                 /* [s] the step */
+    double p[6];              /* the form's parameters (gcp_point_B.p) */
+    double rin2, rout2, zmax; /* the field's bounds (gcp_block_classify's) */
+    double amax;              /* opts->adiabaticity_max (> 0: tested at each step's start) */
+    double q, m;              /* [C], [kg] for the adiabaticity test */
+};
+typedef int64_t (*gcp_rk4_tile_fn)(double *x, double *y, double *z, double *p, const double *mu,
+                                   int32_t *fst, size_t nt, int64_t kmax,
+                                   const struct gcp_rk4_tile_args *a);
+
+/* The tile function for a form (enum gcp_point_B_form) with or without E;
+ * NULL where there is none. */
+gcp_rk4_tile_fn gcp_rk4_fused_tile(int form, int has_E);
+
+#endif
