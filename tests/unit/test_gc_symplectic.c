@@ -284,9 +284,11 @@ static void long_run(const struct sys *S, const struct gcp_pusher_type *p, doubl
  * trip, and each re-start of gcp_gc_push's 256-step chunks that of
  * (X, p_par) -> z: a random walk.  Measured, its largest excursion over
  * 1e7 steps is 9.7e-13 (gc-gl2) and 1.2e-13 (gc-gl4): sigma ~ 3e-16 = 1.4
- * ulp a step for gc-gl2 (9.7e-13 / sqrt(1e7)).  The issue's 1e-12 holds,
- * but at 1e7 steps it is the walk's own size (another compiler's rounding
- * could cross it); asserted: 3e-12, three times sigma sqrt(N).
+ * ulp a step for gc-gl2 (9.7e-13 / sqrt(1e7)).  The issue's 1e-12 is the
+ * walk's own size at 1e7 steps: since the lifted solver's predictor along
+ * the field line (another rounding of the same steps) gc-gl2 reads 1.2e-12
+ * in both cases, gc-gl4 2.7e-13 / 1.7e-13; asserted: 3e-12, three times
+ * sigma sqrt(N).
  * The same test fails the non-symplectic methods at no less than gc-gl4's
  * cost per unit time: gc-rk4 at a 12x smaller step (48 field evaluations
  * against gc-gl4's ~15 a step) and gc-rk45 at tolerance 1e-8 (84 and 96
@@ -331,8 +333,8 @@ static void long_run_case(struct sys *S)
     sys_free(S);
 }
 
-/* Measured (1e7 steps; ~55 s CPU): gc-gl2 energy range 1.45e-2, trend
- * 8.0e-8 of it, P_phi 9.7e-13; gc-gl4 9.73e-5, 1.8e-5, 5.3e-14.  Over 1e6
+/* Measured (1e7 steps; ~45 s CPU): gc-gl2 energy range 1.45e-2, trend
+ * 5.6e-7 of it, P_phi 1.2e-12; gc-gl4 9.73e-5, 7.3e-5, 2.7e-13.  Over 1e6
  * steps' time: gc-rk4 trend 1.0 of its range (4.8e-5), P_phi 1.8e-5;
  * gc-rk45 1.0 (3.7e-3), 4.4e-4. */
 Test(gc_symplectic, long_run_electron_energy_bounded_pphi_exact, .timeout = 600)
@@ -343,8 +345,8 @@ Test(gc_symplectic, long_run_electron_energy_bounded_pphi_exact, .timeout = 600)
     long_run_case(&S);
 }
 
-/* Measured (1e7 steps; ~55 s CPU): gc-gl2 energy range 2.11e-2, trend
- * 1.9e-7 of it, P_phi 9.3e-13; gc-gl4 1.45e-4, 8.6e-5, 1.2e-13.  Over 1e6
+/* Measured (1e7 steps; ~45 s CPU): gc-gl2 energy range 2.11e-2, trend
+ * 3.0e-7 of it, P_phi 1.2e-12; gc-gl4 1.45e-4, 2.6e-5, 1.7e-13.  Over 1e6
  * steps' time: gc-rk4 trend 1.0 of its range (8.2e-5), P_phi 2.1e-5;
  * gc-rk45 1.0 (1.6e-3), 3.5e-4. */
 Test(gc_symplectic, long_run_proton_energy_bounded_pphi_exact, .timeout = 600)
