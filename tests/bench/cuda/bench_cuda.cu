@@ -53,35 +53,13 @@
         }                                                                                   \
     } while (0)
 
-/* ---- the dipole, as fields/dipole.c (c = B0 R_E^3, r^2 floored as field_kernels.h) --- */
-static __forceinline__ GCP_HD double dip_r2(double x, double y, double z)
-{
-    const double r2 = x * x + y * y + z * z;
-    return r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
-}
+/* ---- the dipole: the kernel layer's closed forms (gcpush/field_kernels.h) ------- */
 
 /* B: the kernel layer's closed-form dipole (gcpush/field_kernels.h), the
  * one gcpush's fused CPU loop uses. */
 static __forceinline__ GCP_HD void dip_B(double c, double x, double y, double z, double B[3])
 {
     gcp_point_B_dipole(c, x, y, z, &B[0], &B[1], &B[2]);
-}
-
-/* dB_i/dx_j = -3 c/r^5 [z d_ij + x_i d_jz + x_j d_iz - 5 z x_i x_j / r^2] */
-static __forceinline__ GCP_HD void dip_G(double c, double x, double y, double z, double G[3][3])
-{
-    const double r2 = dip_r2(x, y, z), c5 = c / (r2 * r2 * sqrt(r2));
-    const double a = -3.0 * c5, zf = 5.0 * z / r2;
-    const double px = -zf * x, py = -zf * y, pz = -zf * z;
-    G[0][0] = a * (px * x + z);
-    G[0][1] = a * (px * y);
-    G[0][2] = a * (px * z + x);
-    G[1][0] = a * (py * x);
-    G[1][1] = a * (py * y + z);
-    G[1][2] = a * (py * z + y);
-    G[2][0] = a * (pz * x + x);
-    G[2][1] = a * (pz * y + y);
-    G[2][2] = a * (((pz * z + z) + z) + z);
 }
 
 /* ---- one particle, many steps ------------------------------------------------ */
@@ -109,8 +87,7 @@ static __forceinline__ GCP_HD void gc_f(double c, const double y[4], double mu, 
                                double k[4])
 {
     double B[3], G[3][3];
-    dip_B(c, y[0], y[1], y[2], B);
-    dip_G(c, y[0], y[1], y[2], G);
+    gcp_point_BG_dipole(c, y[0], y[1], y[2], B, G); /* B, grad B as fields/dipole.c */
     gcp_gc_rhs(B, G, NULL, y[3], mu, q, m, k, &k[3]);
 }
 
