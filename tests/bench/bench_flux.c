@@ -50,12 +50,12 @@ static void sys_init(struct sys *S, double T, double xi, double R, double Z)
     const double p = gc_p_of_T(T, S->m);
     S->ppar = p * xi;
     S->mu = p * p * (1 - xi * xi) / (2 * S->m * gc_Bmag(S->f, S->X));
-    const double Tg = 2 * GCP_PI * 2.0 * R / (p / S->m * 0.3);
-    struct gc_bounce_ctx c = {0, S->ppar, {0}, 0};
-    double X[3] = {R, 0.0, Z}, pp = S->ppar, t = 0;
-    const struct gcp_push_opts o = {0.0, 1e-4 * Tg, 100000, 0.0, 0.0};
-    gcp_gc_push(S->f, &gcp_pusher_gc_rk8pd, S->q, S->m, &o, &t, X, &pp, S->mu, gc_bounce_cb, &c);
-    S->Tb = c.tc[2] - c.tc[0];
+    S->Tb = gc_bounce_period(S->f, S->q, S->m, S->mu, S->X, S->ppar,
+                             gc_tokamak_tb_guess(R, p, S->m));
+    if (!isfinite(S->Tb)) {
+        fprintf(stderr, "bench_flux: %s: no bounce\n", S->name);
+        exit(1);
+    }
 }
 
 /* h = T_b / (25.37 sub): gc-rk4 at sub = 12 (the long runs' equal-cost

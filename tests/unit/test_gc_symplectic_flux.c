@@ -26,21 +26,6 @@ struct fsys {
     double bound; /* its assertion for the symplectic methods */
 };
 
-/* Bounce period: the time between the first and the third sign change of
- * p_par under gc-rk8pd (tolerance 1e-12), located by linear interpolation
- * between samples 1e-4 T_guess apart (error ~1e-8 T_b, far below what the
- * tests need: the step h = T_b/N only sets the resolution). */
-static double bounce_period(const struct fsys *S, double Tguess)
-{
-    struct gc_bounce_ctx c = {0, S->ppar, {0}, 0};
-    double X[3] = {S->X[0], S->X[1], S->X[2]}, pp = S->ppar, t = 0;
-    const struct gcp_push_opts o = {0.0, 1e-4 * Tguess, 100000, 0.0, 0.0};
-    gcp_gc_push(S->f, &gcp_pusher_gc_rk8pd, S->k.q, S->k.m, &o, &t, X, &pp, S->k.mu, gc_bounce_cb,
-                &c);
-    cr_assert_eq(c.nc, 3, "%s: no bounce within %g s", S->name, 10 * Tguess);
-    return c.tc[2] - c.tc[0];
-}
-
 static void fsys_start(struct fsys *S, double q, double m, double T, double xi, double R, double Z)
 {
     char why[300];
@@ -50,8 +35,8 @@ static void fsys_start(struct fsys *S, double q, double m, double T, double xi, 
     const double p = gc_p_of_T(T, m);
     S->ppar = p * xi;
     S->k = (struct gcp_gc_consts){q, m, p * p * (1 - xi * xi) / (2 * m * gc_Bmag(S->f, S->X))};
-    /* guess: a transit of the connection length 2 pi q R at v_par */
-    S->Tb = bounce_period(S, 2 * GCP_PI * 2.0 * R / (p / m * 0.3));
+    S->Tb = gc_bounce_period(S->f, q, m, S->k.mu, S->X, S->ppar, gc_tokamak_tb_guess(R, p, m));
+    cr_assert(isfinite(S->Tb), "%s: no bounce", S->name);
 }
 
 /* Tokamak R0 = 3 m, a = 1 m, B0 = 2.5 T, q = 1.1 .. 3.5; a 100 keV proton

@@ -305,4 +305,26 @@ static inline int gc_bounce_cb(double t, const double X[3], double ppar, void *v
     return c->nc == 3;
 }
 
+/* Bounce period: the time between the first and the third sign change of
+ * p_par under gc-rk8pd (tolerance 1e-12), located by linear interpolation
+ * between samples 1e-4 T_guess apart (error ~1e-8 T_b, far below what the
+ * tests need: the step h = T_b/N only sets the resolution).  NAN when the
+ * orbit does not bounce within 10 T_guess. */
+static inline double gc_bounce_period(const struct gcp_field *f, double q, double m, double mu,
+                                      const double X0[3], double ppar, double Tguess)
+{
+    struct gc_bounce_ctx c = {0, ppar, {0}, 0};
+    double X[3] = {X0[0], X0[1], X0[2]}, pp = ppar, t = 0;
+    const struct gcp_push_opts o = {0.0, 1e-4 * Tguess, 100000, 0.0, 0.0};
+    gcp_gc_push(f, &gcp_pusher_gc_rk8pd, q, m, &o, &t, X, &pp, mu, gc_bounce_cb, &c);
+    return c.nc == 3 ? c.tc[2] - c.tc[0] : NAN;
+}
+
+/* A transit of the connection length 2 pi q R (q ~ 2) at v_par = 0.3 v:
+ * the bounce-period guess of the tokamak-like tests [s]. */
+static inline double gc_tokamak_tb_guess(double R, double p, double m)
+{
+    return 2 * GCP_PI * 2.0 * R / (p / m * 0.3);
+}
+
 #endif
