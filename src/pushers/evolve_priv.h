@@ -94,9 +94,10 @@ struct gcp_stepper {
      * classification pass (the live lanes stay ALIVE), and b->fstatus need
      * not be written; a stepper that does not test sets *stops = 1.  Never
      * fails a lane.  The evolve layer bounds kmax by the push's end and the
-     * next sampling step. */
+     * next sampling step.  lanes: the lanes' states (lane i's at lanes +
+     * i lane_size), or NULL where lane_size is 0. */
     int64_t (*steps)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
-                     double t, double h, int64_t kmax, int32_t *stops);
+                     double t, double h, int64_t kmax, int32_t *stops, unsigned char *lanes);
     /* Or the same for one lane with its state (used when step is NULL):
      * returns 0 or the lane's status, as gcp_gc_lane_ops.step. */
     int (*step_lane)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
@@ -180,7 +181,7 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
         if (st->steps) {
             int64_t kmax = o->nsteps - k;
             if (every && every - k % every < kmax) kmax = every - k % every;
-            kd = st->steps(&ev, ctx, b, n, t, h, kmax, &stops);
+            kd = st->steps(&ev, ctx, b, n, t, h, kmax, &stops, L);
             if (kd > 1) k += kd - 1, t = o->t0 + (double)k * h;
         }
         /* the start of the step: stopped lanes leave with its state and time */

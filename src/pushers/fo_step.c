@@ -149,10 +149,11 @@ static void fo_state_arrays(struct gcp_block *b, double *a[6])
  * recomputing (a square root and a division a lane); a push of one call
  * (one step per call, streaming) never touches b->hg. */
 static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
-                        double t, double dt, int64_t kmax, int32_t *stops)
+                        double t, double dt, int64_t kmax, int32_t *stops,
+                        unsigned char *lanes)
 {
     struct fo_ctx *c = vctx;
-    (void)ev, (void)t, (void)dt;
+    (void)ev, (void)t, (void)dt, (void)lanes;
     if (!c->tile) return 0;
     double *a[6];
     fo_state_arrays(b, a);

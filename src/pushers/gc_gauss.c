@@ -686,6 +686,9 @@ static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_sampler *s, const struct gl_tableau *tab)
 {
     (void)p;
+    /* the dipole: its closed-form canonical coordinates, fused (gc_gauss_dipole.c) */
+    size_t live;
+    if (gcp_gl_dipole_advance(b, f, o, s, tab, &live) == 0) return live;
     struct gl_ctx C = {.tab = tab};
     char why[256];
     gcp_gl_ctx_weights(&C);

@@ -198,6 +198,12 @@ int32_t gcp_gl_step_block(const void *ctx, struct gcp_block *b, size_t n, double
                           unsigned char *lanes);
 /* The block solver's work space (free() it), or NULL. */
 void *gcp_gl_block_scratch(void);
+/* gc-gl2 / gc-gl4 in the dipole's closed form (gc_gauss_dipole.c): 0 with
+ * the live lane count in *live when it pushed, -1 when the field is not
+ * the dipole form without E (the chart's solvers then push). */
+int gcp_gl_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
+                          const struct gcp_push_opts *o, const struct gcp_sampler *smp,
+                          const struct gl_tableau *tab, size_t *live);
 /* gcp_pusher_type.applies of the methods that need a canonical chart. */
 int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
 

@@ -335,10 +335,11 @@ static int32_t rk4_step(const struct gcp_evolve *ev, void *vctx, struct gcp_bloc
  * (a lane stops at the start of the first step): every tile is restored
  * and the start check and block step run instead, which retire the lane. */
 static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
-                         double t, double h, int64_t kmax, int32_t *stops)
+                         double t, double h, int64_t kmax, int32_t *stops,
+                         unsigned char *lanes)
 {
     struct rk4_ctx *c = vctx;
-    (void)ev, (void)t, (void)h;
+    (void)ev, (void)t, (void)h, (void)lanes;
     *stops = 1; /* the evolve layer classifies after the steps, as after one */
     if (!c->tile) return 0;
     double *a[4] = {b->x, b->y, b->z, b->ppar};
