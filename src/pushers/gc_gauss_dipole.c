@@ -352,7 +352,12 @@ dgl_commit(const int S, const struct dgl_args *restrict A, struct dgl_tile *rest
         ds += A->b[st] * t->K[st][0][i], dQ += A->b[st] * t->K[st][1][i];
         dp += A->b[st] * t->Kp[st][i];
     }
-    t->s[i] = s0 + h * ds, t->Q[i] = Q0 + h * dQ, t->phip[i] += h * dp;
+    /* phi' kept in [-pi, pi] at every step (an angle grown to 1e3 rad would
+     * have an ulp above the Newton tolerance; per step, so that the numbers
+     * do not depend on how the push is sliced into calls) */
+    double pp = t->phip[i] + h * dp;
+    pp = fabs(pp) > DGL_PI ? pp - 2.0 * DGL_PI * rint(pp * (0.5 / DGL_PI)) : pp;
+    t->s[i] = s0 + h * ds, t->Q[i] = Q0 + h * dQ, t->phip[i] = pp;
     t->have[i] = 1.0;
 }
 
@@ -439,8 +444,7 @@ static void dgl_gather(struct dgl_tile *t, const unsigned char *lanes, size_t i0
     }
 }
 
-/* Back to the lane storage (phi' kept in [-pi, pi]: an angle grown to 1e3
- * rad would have an ulp above the Newton tolerance), and X, p_par of the
+/* Back to the lane storage, and X, p_par of the
  * lanes into the block (not of lanes whose step failed: they keep theirs):
  *   R = L W^(3/2), Z = L W s, p_par = sgn(k) m c Q g/T, phi = phi' + w 2 s W Q/T. */
 static void dgl_scatter(const struct dgl_args *A, const struct dgl_tile *t, unsigned char *lanes,
@@ -449,8 +453,7 @@ static void dgl_scatter(const struct dgl_args *A, const struct dgl_tile *t, unsi
     for (size_t i = 0; i < nt; i++) {
         if (t->fail[i] != 0.0) continue; /* nothing of a failed step is kept */
         struct dgl_lane *l = (struct dgl_lane *)(lanes + (i0 + i) * sizeof *l);
-        double pp = t->phip[i];
-        if (fabs(pp) > DGL_PI) pp -= 2.0 * DGL_PI * rint(pp * (0.5 / DGL_PI));
+        const double pp = t->phip[i];
         l->s = t->s[i], l->Q = t->Q[i], l->phip = pp, l->have = t->have[i];
         for (int n = 0; n <= GL_SMAX; n++) l->hist[n][0] = t->hist[n][0][i], l->hist[n][1] = t->hist[n][1][i];
         const double s = t->s[i], Q = t->Q[i], L = t->L[i];
@@ -632,4 +635,15 @@ int gcp_gl_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
     *live = gcp_evolve(b, f, o, smp, &dgl_stepper, &c);
     free(c.save_lanes), free(c.save_X), free(c.done);
     return 0;
+}
+
+/* dip_stops for tests/unit/test_gc_dipole_line.c: the fused start check at
+ * (s, Q) on line L of the dipole k (mu from beta), against
+ * gcp_gc_adiabaticity_of. */
+int gcp_gl_dipole_stops(double k, double q, double m, double L, double s, double Q, double beta,
+                        double amax)
+{
+    const struct dgl_args A = {.k = k, .q = q, .m = m, .mc = m * GCP_C_LIGHT,
+                               .amax2 = amax > 0.0 ? amax * amax : 0.0};
+    return dip_stops(s, Q, L, beta, &A);
 }

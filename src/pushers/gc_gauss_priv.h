@@ -204,6 +204,10 @@ void *gcp_gl_block_scratch(void);
 int gcp_gl_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
                           const struct gcp_push_opts *o, const struct gcp_sampler *smp,
                           const struct gl_tableau *tab, size_t *live);
+/* Its start-of-step check at a point of line L (tests): non-zero where the
+ * lane stops (|s| >= 1, non-finite, or the adiabaticity above amax > 0). */
+int gcp_gl_dipole_stops(double k, double q, double m, double L, double s, double Q, double beta,
+                        double amax);
 /* gcp_pusher_type.applies of the methods that need a canonical chart. */
 int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
 
