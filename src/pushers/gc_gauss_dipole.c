@@ -476,7 +476,9 @@ static inline __attribute__((always_inline)) void dgl_sincos(double x, double *s
     pc = pc * r2 + 1.0 / 24.0;
     const double c0 = 1.0 - 0.5 * r2 + r2 * r2 * pc;
     /* quadrant q = k mod 4: (sin, cos) = (s0, c0), (c0, -s0), (-s0, -c0), (-c0, s0) */
-    const long q = (long)k & 3;
+    /* k of a non-finite x would make the conversion undefined: 0 (the
+     * result is then NaN through r) */
+    const long q = (long)(fabs(k) < 1e9 ? k : 0.0) & 3;
     const double sa = (q & 1) ? c0 : s0, ca = (q & 1) ? s0 : c0;
     *sn = (q & 2) ? -sa : sa;
     *cs = ((q + 1) & 2) ? -ca : ca;
