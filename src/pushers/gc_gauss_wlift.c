@@ -38,7 +38,9 @@
  * the points of the last two steps and the start extrapolated).  Converged
  * as gc_gauss.c's lifted solver (the update of the stage values and of the
  * points relative to their scales, <= 1e-15, or the contraction predicting
- * the next below 1e-18, or stalled at the round-off floor).  DF is taken
+ * the next below 1e-18, or stalled at the round-off floor, or at the floor
+ * with the contraction of the two updates before predicting the next below
+ * 1e-18).  DF is taken
  * again once where the first update was large or an update contracted less
  * than 10x; an update that stops contracting after that abandons the step
  * for the inverting solver (gc_gauss.c).
@@ -211,8 +213,18 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
         const double th = nd / nprev;
         const int next_below = it > 0 && th < 1.0 && th / (1.0 - th) * nd <= 1e-3 * GLW_TOL;
         const int stalled = it > 0 && nd <= GLW_FLOOR && th > 0.5;
+        /* at the floor, the contraction of the last two updates above it
+         * (thprev: both above the floor, so not the round-off's ratio)
+         * bounds the next update the same way: converged without the
+         * iteration that "stalled" takes to see the floor (a whole chart
+         * evaluation a stage; 28% (gc-gl2) and 37% (gc-gl4) of the steps in
+         * DIII-D ended that way, 11% and 6% with this; iterations a step 4.54
+         * -> 4.18 and 4.56 -> 3.95).  The update not taken is below 1e-18 of
+         * the scales, as next_below's. */
+        const int floor_next = it > 1 && nd <= GLW_FLOOR && nprev > GLW_FLOOR &&
+                               thprev < 0.5 && thprev / (1.0 - thprev) * nd <= 1e-3 * GLW_TOL;
         if (it > 1 && th > 0.5 && !stalled && refreshed) return GCP_STEP_FAILED;
-        if (nd <= GLW_TOL || next_below || stalled) {
+        if (nd <= GLW_TOL || next_below || stalled || floor_next) {
             double z1[4], t1, v[GL_SMAX][2], pe[2];
             gcp_gl_end_state(T, L, h, K, pd, z1, &t1);
             for (int i = 0; i < s; i++) {
