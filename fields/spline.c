@@ -93,6 +93,78 @@ static void spl5_line(size_t n, const double *f, double *c, size_t cs, const gsl
     for (size_t k = 0; k < N; k++) c[k * cs] = gsl_vector_get(rhs, k);
 }
 
+/* The interpolating septic B-spline of one grid line (grid_priv.h), the
+ * quintic's construction one degree pair up: f[0..n-1] in, c[-3..n+2]
+ * (n + 6 values, stride cs) out, with the LU of the line's (n + 6)^2 matrix
+ * (spl7_matrix) given.  Unknowns c_{-3} .. c_{n+2}; rows: h^3 f'''(0),
+ * h^2 f''(0), h f'(0), the n interpolation rows, h f'(n-1), h^2 f''(n-1),
+ * h^3 f'''(n-1).  The spline's own values at node i, on c_{i-3} .. c_{i+3}
+ * (the septic B-spline and its derivatives at the integers):
+ *   f         = (1, 120, 1191, 2416, 1191, 120, 1) / 5040,
+ *   h f'      = (-1, -56, -245, 0, 245, 56, 1) / 720,
+ *   h^2 f''   = (1, 24, 15, -80, 15, 24, 1) / 120,
+ *   h^3 f'''  = (-1, -8, 19, 0, -19, 8, 1) / 24.
+ * The end values are the 9-point one-sided differences, exact for degree 8
+ * (the weights solve sum_j a_j j^p = k! [p = k], p = 0..8; Fornberg, Math.
+ * Comp. 51 (1988) 699), so each h^k f^(k) is O(h^9) accurate, like the
+ * spline's value:
+ *   h f'(0)     = (-761/280, 8, -14, 56/3, -35/2, 56/5, -14/3, 8/7, -1/8) . f[0..8],
+ *   h^2 f''(0)  = (29531/5040, -962/35, 621/10, -4006/45, 691/8, -282/5, 2143/90,
+ *                  -206/35, 363/560) . f[0..8],
+ *   h^3 f'''(0) = (-801/80, 349/6, -18353/120, 2391/10, -1457/6, 4891/30, -561/8,
+ *                  527/30, -469/240) . f[0..8],
+ * mirrored at the other end (the odd derivatives with the opposite sign). */
+static void spl7_matrix(size_t n, gsl_matrix *A)
+{
+    const size_t N = n + 6;
+    gsl_matrix_set_zero(A);
+    static const double d3[7] = {-1.0 / 24, -8.0 / 24, 19.0 / 24, 0.0,
+                                 -19.0 / 24, 8.0 / 24, 1.0 / 24};
+    static const double d2[7] = {1.0 / 120,  24.0 / 120, 15.0 / 120, -80.0 / 120,
+                                 15.0 / 120, 24.0 / 120, 1.0 / 120};
+    static const double d1[7] = {-1.0 / 720,  -56.0 / 720, -245.0 / 720, 0.0,
+                                 245.0 / 720, 56.0 / 720,  1.0 / 720};
+    static const double v[7] = {1.0 / 5040,    120.0 / 5040, 1191.0 / 5040, 2416.0 / 5040,
+                                1191.0 / 5040, 120.0 / 5040, 1.0 / 5040};
+    for (size_t k = 0; k < 7; k++) {
+        gsl_matrix_set(A, 0, k, d3[k]);
+        gsl_matrix_set(A, 1, k, d2[k]);
+        gsl_matrix_set(A, 2, k, d1[k]);
+        gsl_matrix_set(A, N - 3, n - 1 + k, d1[k]);
+        gsl_matrix_set(A, N - 2, n - 1 + k, d2[k]);
+        gsl_matrix_set(A, N - 1, n - 1 + k, d3[k]);
+        for (size_t i = 0; i < n; i++) gsl_matrix_set(A, i + 3, i + k, v[k]);
+    }
+}
+
+static void spl7_line(size_t n, const double *f, double *c, size_t cs, const gsl_matrix *LU,
+                      const gsl_permutation *perm, gsl_vector *rhs)
+{
+    static const double e1[9] = {-761.0 / 280, 8.0,       -14.0,   56.0 / 3, -35.0 / 2,
+                                 56.0 / 5,     -14.0 / 3, 8.0 / 7, -1.0 / 8};
+    static const double e2[9] = {29531.0 / 5040, -962.0 / 35, 621.0 / 10,
+                                 -4006.0 / 45,   691.0 / 8,   -282.0 / 5,
+                                 2143.0 / 90,    -206.0 / 35, 363.0 / 560};
+    static const double e3[9] = {-801.0 / 80, 349.0 / 6,   -18353.0 / 120,
+                                 2391.0 / 10, -1457.0 / 6, 4891.0 / 30,
+                                 -561.0 / 8,  527.0 / 30,  -469.0 / 240};
+    double a1 = 0, a2 = 0, a3 = 0, b1 = 0, b2 = 0, b3 = 0;
+    for (size_t k = 0; k < 9; k++) {
+        a1 += e1[k] * f[k], a2 += e2[k] * f[k], a3 += e3[k] * f[k];
+        b1 -= e1[k] * f[n - 1 - k], b2 += e2[k] * f[n - 1 - k], b3 -= e3[k] * f[n - 1 - k];
+    }
+    const size_t N = n + 6;
+    gsl_vector_set(rhs, 0, a3);
+    gsl_vector_set(rhs, 1, a2);
+    gsl_vector_set(rhs, 2, a1);
+    for (size_t i = 0; i < n; i++) gsl_vector_set(rhs, i + 3, f[i]);
+    gsl_vector_set(rhs, N - 3, b1);
+    gsl_vector_set(rhs, N - 2, b2);
+    gsl_vector_set(rhs, N - 1, b3);
+    gsl_linalg_LU_svx(LU, perm, rhs);
+    for (size_t k = 0; k < N; k++) c[k * cs] = gsl_vector_get(rhs, k);
+}
+
 void gcp_spl_free(struct gcp_spl *s)
 {
     if (!s) return;
@@ -111,9 +183,11 @@ int gcp_spl_build(struct gcp_spl *s, int nd, int kind, const size_t n[], const d
     s->nd = nd;
     s->kind = kind;
     s->ncomp = ncomp;
-    const size_t nmin = kind == GCP_SPL_QUINTIC ? 7 : kind == GCP_SPL_CUBIC ? 5 : 2;
-    const size_t pad = kind == GCP_SPL_QUINTIC ? 4 : kind == GCP_SPL_CUBIC ? 2 : 0;
-    static const char *const kname[] = {"cubic", "linear", "quintic"};
+    if (kind < GCP_SPL_CUBIC || kind > GCP_SPL_SEPTIC)
+        return gcp_error_set(err, GCP_ERR_STATE, "spline: bad kind %d", kind);
+    static const size_t nmins[] = {5, 2, 7, 9}, pads[] = {2, 0, 4, 6};
+    const size_t nmin = nmins[kind], pad = pads[kind];
+    static const char *const kname[] = {"cubic", "linear", "quintic", "septic"};
     size_t total = 1, stride = 1;
     for (int a = 0; a < 3; a++) {
         if (a < nd) {
@@ -169,18 +243,21 @@ int gcp_spl_build(struct gcp_spl *s, int nd, int kind, const size_t n[], const d
             gsl_matrix *A = NULL;
             gsl_permutation *perm = NULL;
             gsl_vector *rhs = NULL;
-            if (kind == GCP_SPL_QUINTIC) {
+            if (kind == GCP_SPL_QUINTIC || kind == GCP_SPL_SEPTIC) {
                 int sgn;
-                A = gsl_matrix_alloc(na + 4, na + 4);
-                perm = gsl_permutation_alloc(na + 4);
-                rhs = gsl_vector_alloc(na + 4);
+                A = gsl_matrix_alloc(na + pad, na + pad);
+                perm = gsl_permutation_alloc(na + pad);
+                rhs = gsl_vector_alloc(na + pad);
                 if (!A || !perm || !rhs) {
                     if (A) gsl_matrix_free(A);
                     if (perm) gsl_permutation_free(perm);
                     if (rhs) gsl_vector_free(rhs);
                     goto nomem;
                 }
-                spl5_matrix(na, A);
+                if (kind == GCP_SPL_QUINTIC)
+                    spl5_matrix(na, A);
+                else
+                    spl7_matrix(na, A);
                 gsl_linalg_LU_decomp(A, perm, &sgn);
             }
             for (size_t k = lo[2]; k < hi[2]; k++)
@@ -188,7 +265,9 @@ int gcp_spl_build(struct gcp_spl *s, int nd, int kind, const size_t n[], const d
                     for (size_t i = lo[0]; i < hi[0]; i++) {
                         double *p = co + i * s->stride[0] + j * s->stride[1] + k * s->stride[2];
                         for (size_t q = 0; q < na; q++) line[q] = p[(q + o) * sa];
-                        if (A)
+                        if (kind == GCP_SPL_SEPTIC)
+                            spl7_line(na, line, p, sa, A, perm, rhs);
+                        else if (A)
                             spl5_line(na, line, p, sa, A, perm, rhs);
                         else
                             spl_line(na, line, 1, p, sa, tmp);
@@ -276,6 +355,35 @@ int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct g
                 ddw[4] = ci2 * (-100 * t3 + 60 * t2 + 60 * t + 20);
                 ddw[5] = 20 * ci2 * t3;
             }
+        } else if (s->kind == GCP_SPL_SEPTIC) {
+            /* the uniform septic B-spline's eight pieces on [0, 1], times
+             * 5040, coefficients of t^0 .. t^7 (piece m multiplies
+             * c_{i-3+m}; B_7 by its truncated-power form, e.g. de Boor, A
+             * Practical Guide to Splines, ch. IX), by Horner */
+            static const double P[8][8] = {
+                {1, -7, 21, -35, 35, -21, 7, -1},
+                {120, -392, 504, -280, 0, 84, -42, 7},
+                {1191, -1715, 315, 665, -315, -105, 105, -21},
+                {2416, 0, -1680, 0, 560, 0, -140, 35},
+                {1191, 1715, 315, -665, -315, 105, 105, -35},
+                {120, 392, 504, 280, 0, -84, -42, 21},
+                {1, 7, 21, 35, 35, 21, 7, -7},
+                {0, 0, 0, 0, 0, 0, 0, 1}};
+            const double c = 1.0 / 5040.0, ci = c * ih, ci2 = ci * ih;
+            for (int m = 0; m < 8; m++) {
+                const double *q = P[m];
+                double v = q[7], dv = 7 * q[7], ddv = 42 * q[7];
+                for (int k = 6; k >= 0; k--) v = v * t + q[k];
+                w[m] = c * v;
+                if (order >= 1) {
+                    for (int k = 6; k >= 1; k--) dv = dv * t + k * q[k];
+                    dw[m] = ci * dv;
+                }
+                if (order >= 2) {
+                    for (int k = 6; k >= 2; k--) ddv = ddv * t + k * (k - 1) * q[k];
+                    ddw[m] = ci2 * ddv;
+                }
+            }
         } else {
             w[0] = 1.0 - t;
             w[1] = t;
@@ -301,7 +409,10 @@ int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct g
 void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c, int order,
                   struct gcp_spl_out *o)
 {
-    const int K = s->kind == GCP_SPL_QUINTIC ? 6 : s->kind == GCP_SPL_CUBIC ? 4 : 2;
+    const int K = s->kind == GCP_SPL_SEPTIC    ? 8
+                  : s->kind == GCP_SPL_QUINTIC ? 6
+                  : s->kind == GCP_SPL_CUBIC   ? 4
+                                               : 2;
     const double *co = s->coef[c] + loc->base;
     const double c0 = co[0];
     if (s->nd == 1) {
@@ -322,7 +433,7 @@ void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c,
         double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
         for (int b = 0; b < K; b++) {
             const double *rr = co + b * s1;
-            double r[6];
+            double r[8];
             for (int a = 0; a < K; a++) r[a] = rr[a] - c0;
             double v = 0, v0 = 0, v00 = 0;
             for (int a = 0; a < K; a++) v += loc->w[0][a] * r[a];
@@ -354,7 +465,7 @@ void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c,
         double g = 0, g0 = 0, g1 = 0;
         for (int b = 0; b < K; b++) {
             const double *rr = co + b * s1 + k * s2;
-            double r[6];
+            double r[8];
             for (int a = 0; a < K; a++) r[a] = rr[a] - c0;
             double v = 0, v0 = 0;
             for (int a = 0; a < K; a++) v += loc->w[0][a] * r[a];
@@ -382,6 +493,7 @@ double gcp_spl1_eval(const struct gcp_spl *s, int c, double u, double *du, doubl
 {
     struct gcp_spl_loc loc;
     struct gcp_spl_out o;
+    o.dd[0][0] = 0.0; /* set by the 1D branch; the compiler cannot see that nd is 1 */
     const double x = s->x0[0] + u * s->h[0];
     gcp_spl_locate(s, &x, 2, &loc);
     gcp_spl_eval(s, &loc, c, 2, &o);
