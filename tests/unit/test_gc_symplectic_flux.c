@@ -136,9 +136,10 @@ static double sympl_residual(const struct fsys *S, const struct gcp_pusher_type 
  *   derivatives of psi and of the chart's table; with the C2 bicubic
  *   splines of before, a stencil of 1e-3 crossed such a boundary (residual
  *   1e-6 .. 2e-5), which is why psi (fields/eqdsk.c) and the chart table
- *   (canon_flux_num.c) are C4 quintic splines.
+ *   (canon_flux_num.c) are at least C4 (quintic; septic, C6, since the
+ *   order test below).
  * Measured at fd = 3e-4 for gc-gl2/gl4 at N = 25 .. 200: tokamak <= 6.9e-10,
- * DIII-D <= 7.0e-10 (the bicubic splines and a second-order difference gave
+ * DIII-D <= 4.5e-10 (7.0e-10 quintic; the bicubic splines and a second-order difference gave
  * 3.2e-8); bound 3e-9 (3x below the issue's 1e-8, 4x above the measured).
  * gc-rk4 (h^5) is > 1e-5 at N = 25 and falls >= 16x per halving while above
  * the bound: the test can fail. */
@@ -205,29 +206,35 @@ Test(gc_symplectic_flux, eqdsk_one_step_map_is_symplectic, .timeout = 120)
  * halving from N0 (N0 -> 2 N0 -> 4 N0 for gc-gl4 in DIII-D, N0 -> 2 N0
  * otherwise, N0 / 2 -> N0 logged).
  *   Tokamak (exact, analytic chart), N0 = 100: measured 3.98, 4.00 and
- *   15.96, 15.66.
+ *   15.97, 15.99 (e N^4 constant to 3 digits from N = 30 on).
  *   DIII-D, gc-gl2, N0 = 100: measured 3.96, 3.99.
- *   DIII-D, gc-gl4, N0 = 300: measured 16.20 (300 -> 600), 16.46 (600 ->
+ *   DIII-D, gc-gl4, N0 = 300: measured 16.19 (300 -> 600), 16.30 (600 ->
  *   1200).  Why so many steps, and why septic splines.  A Gauss-Legendre
  *   method's error expansion e = c4 h^4 + c6 h^6 + ... needs the flow
  *   F = J grad H smooth; F holds psi's and the chart table's second
  *   derivatives (grad B, X_ee, ...), and both are splines whose highest
  *   derivative jumps at every cell boundary.  A step across a jump of F's
  *   k-th derivative errs by O(h^(k+1)) with a coefficient that depends on
- *   where in the step the boundary lies: the orbit crosses ~1e2 cells a
- *   bounce, so the sum is an irregular term of order h^(k+1) x (cells
+ *   where in the step the boundary lies: the orbit crosses tens of the
+ *   file's 65 x 65 cells and the table's a bounce, so the sum is an irregular term of order h^(k+1) x (cells
  *   crossed) ~ h^k.  Quintic (C4) psi and table: F is C2, k = 3, an
  *   irregular h^4 as large as c4 h^4 at every h (no ratio settles).
  *   Septic (C6, fields/spline.c): F is C4, k = 5, irregular ~ h^6, relative
  *   to c4 h^4 falling as h^2.  Measured, e N^4 (N in hundreds) over
  *   N = 150 .. 1436 in steps of 10% (25 N): quintic 0.29 .. 8.2e-7 (all N),
  *   septic 0.36 .. 2.6e-7 below N = 288, 2.35 .. 2.59e-7 from N = 288 on.
+ *   (Below N ~ 100 both scatter by 10x and more: psirz itself is rough at
+ *   the grid scale, its k-th differences along R stop falling after k = 5,
+ *   1.2e-6, 5.2e-7, 1.2e-7, 1.3e-7, 2.6e-7 Wb/rad for k = 4 .. 8, far above
+ *   its rounding, so the splines' highest derivatives are large and their
+ *   jumps too; gc-gl4 at N = 50 is 3.0e-5 m here, 1.7e-6 quintic.)
  * The 10%, derived for gc-gl4 in DIII-D from N0 = 300: the irregular part
  * scatters e N^4 by <= +-5% about its mean for N >= 288, so a ratio by <=
  * 10% in the worst case (both ends at opposite extremes; measured ratios at
- * N0 = 300 .. 900 in steps of 100: 15.98 .. 17.17); the h^2 term moves c
+ * N0 = 300 .. 900 in steps of 100: 15.92 .. 17.13); the h^2 term moves c
  * by 1.5% a halving (2.45 -> 2.35e-7 over N = 420 -> 1440); the reference,
- * 3.5e-14 m, is 0.3% of e(1200) = 1.2e-11 m.  Not finer than 4 N0 = 1200:
+ * 3.5e-14 m, is 0.3% of e(1200) = 1.2e-11 m, and round-off (the order of
+ * the spline's sums moved e(1200) by 1%) ~1%.  Not finer than 4 N0 = 1200:
  * below ~1e-12 m (N >= 2000) the solver's round-off floor (GLW_FLOOR,
  * gc_gauss_wlift.c) bends the ratios (measured 18.1 .. 24.7 at N0 = 1000 ..
  * 1600).  The same check fails the quintic interpolant of before
@@ -327,8 +334,9 @@ Test(gc_symplectic_flux, eqdsk_order, .timeout = 120)
 
 /* The same measurement with psi, F(psi) and the chart's table quintic (C4),
  * the interpolant of before: gc-gl4's ratios leave 16 +- 10% (measured 23.0
- * at 300 -> 600, 14.0 at 600 -> 1200; at N0 = 300 .. 900 in steps of 100,
- * 5 of 7 outside, against none with the septic splines), gc-gl2's stay (its
+ * at 300 -> 600, 14.0 at 600 -> 1200; at N0 = 300 .. 900 in steps of 100:
+ * 23.0, 31.5, 51.4, 14.0, 16.0, 20.3, 15.0, 5 of 7 outside, against none
+ * with the septic splines), gc-gl2's stay (its
  * h^2 error dwarfs the irregular h^4). */
 Test(gc_symplectic_flux, eqdsk_order_legacy_quintic_fails, .timeout = 120)
 {
