@@ -138,8 +138,8 @@ static double sympl_residual(const struct fsys *S, const struct gcp_pusher_type 
  *   1e-6 .. 2e-5), which is why psi (fields/eqdsk.c) and the chart table
  *   (canon_flux_num.c) are at least C4 (quintic; septic, C6, since the
  *   order test below).
- * Measured at fd = 3e-4 for gc-gl2/gl4 at N = 25 .. 200: tokamak <= 6.9e-10,
- * DIII-D <= 4.5e-10 (7.0e-10 quintic; the bicubic splines and a second-order difference gave
+ * Measured at fd = 3e-4 for gc-gl2/gl4 at N = 25 .. 200: tokamak <= 8.3e-10,
+ * DIII-D <= 7.0e-10 (septic and quintic alike; the bicubic splines and a second-order difference gave
  * 3.2e-8); bound 3e-9 (3x below the issue's 1e-8, 4x above the measured).
  * gc-rk4 (h^5) is > 1e-5 at N = 25 and falls >= 16x per halving while above
  * the bound: the test can fail. */
@@ -471,8 +471,8 @@ Test(gc_symplectic_flux, tokamak_long_run_energy_bounded_pphi_exact, .timeout = 
 }
 
 /* DIII-D trapped orbit.  Measured (1e6 steps, 3.9e4 bounces; ~25 s CPU):
- * gc-gl2 energy range 1.2e-3, trend 9.9e-6 of it, P_phi 5.9e-14; gc-gl4
- * 1.1e-5, 3.0e-6, 2.9e-14.  Over the first 1e5 steps' time: gc-rk4 trend
+ * gc-gl2 energy range 1.2e-3, trend 8.9e-6 of it, P_phi 3.0e-14; gc-gl4
+ * 2.7e-5, 5.0e-6, 2.3e-14 (quintic splines: 1.1e-5, 3.0e-6, 2.9e-14).  Over the first 1e5 steps' time: gc-rk4 trend
  * 1.0 of its range (1.1e-5), P_phi 2.3e-5; gc-rk45 1.0 (5.6e-6), 6.8e-5.
  * With the geometric eta labels and the extrapolated gauge of before, the
  * energy was not bounded: at 25.37 steps a bounce gc-gl2 left the chart
