@@ -11,19 +11,29 @@
  * read as fixed 16-character fields: negative numbers may run together
  * ("-1.0e+00-2.0e+00"), so splitting on white space would be wrong.
  *
- * Field.  psi(R, Z) is the interpolating biquintic B-spline of psirz (C4,
- * grid_priv.h); F = R B_phi is the quintic spline of fpol on the uniform psi
- * grid simag .. sibry (q and pres likewise), evaluated at psi_N = (psi - simag)/(sibry - simag);
- * outside the plasma (psi_N > 1, or Z outside the Z range of the boundary
- * polygon: the private-flux region below an X-point also has psi_N < 1) F
- * is the boundary value fpol(nw), the vacuum R B_phi.  B is continuous
- * there; grad B jumps with F' (the edge current), as it physically does.
- * Why C4: grad B is psi's second derivatives, and the guiding-centre flow
- * holds grad B; the symplectic methods' one-step map (and its Jacobian)
- * then holds psi's third derivatives, which a C2 bicubic spline makes jump
- * at every cell boundary (gc-gl4 lost its order and its energy jumped
- * there: tests/unit/test_gc_symplectic_flux.c).  The quintic spline keeps
- * them continuous; psi's error is O(h^6) instead of O(h^4).
+ * Field.  psi(R, Z) is the interpolating biseptic B-spline of psirz (C6,
+ * grid_priv.h, spline.c); F = R B_phi is the septic spline of fpol on the
+ * uniform psi grid simag .. sibry (q and pres likewise), evaluated at
+ * psi_N = (psi - simag)/(sibry - simag); outside the plasma (psi_N > 1, or Z
+ * outside the Z range of the boundary polygon: the private-flux region below
+ * an X-point also has psi_N < 1) F is the boundary value fpol(nw), the
+ * vacuum R B_phi.  B is continuous there; grad B jumps with F' (the edge
+ * current), as it physically does.
+ * Why C6.  grad B is psi's second derivatives (and F' grad psi), and the
+ * guiding-centre flow holds grad B, so the flow is two orders less smooth
+ * than psi: C0 from a bicubic psi, C2 from a quintic, C4 from a septic
+ * psi and F.  A step of a method of order p across a cell boundary where the
+ * flow's k-th derivative jumps errs by O(h^(k+1)) with a coefficient set by
+ * where the boundary falls in the step; summed over the ~1e2 cells an orbit
+ * crosses in a bounce, an irregular O(h^k) term.  gc-gl4 (p = 4) needs
+ * k >= 5 for clean fourth order, i.e. the flow C4, psi and F(psi) C6 (the
+ * lowest odd degree that gives it is 7; with quintic psi, k = 3, the
+ * irregular h^4 term was as large as the method's own and the error ratios
+ * at halved h scattered from 6.7 to 51: tests/unit/test_gc_symplectic_flux.c,
+ * eqdsk_order and eqdsk_order_legacy_quintic_fails).  psi's interpolation
+ * error is O(h^8) (O(h^6) quintic).  The quintic kind stays loadable
+ * (gcp_eqdsk_load_kind, grid_priv.h) for that test.  Cost: 8 x 8
+ * coefficients per evaluation against 6 x 6 (tests/bench/bench_eqdsk_eval.c).
  *
  * Signs (COCOS, Sauter & Medvedev, Comput. Phys. Commun. 184 (2013) 293).
  * For psi in Wb/rad (COCOS 1..8), with sigma_Bp, sigma_RphiZ, sigma_rhothetaphi
@@ -66,6 +76,7 @@ struct eqdsk_params {
     double dpsi;          /* [Wb/rad] sibry - simag */
     double F_edge;        /* [T m] fpol(nw) */
     double Rmin;          /* [m] floor of R */
+    int kind;             /* enum gcp_spl_kind of psi and the profiles */
 };
 
 static void eqdsk_destroy(void *p)
@@ -177,7 +188,15 @@ static int read_file(const char *path, char **out, struct gcp_error *err)
 int gcp_field_eqdsk_load(const char *path, int cocos, struct gcp_field **out,
                          struct gcp_error *err)
 {
+    return gcp_eqdsk_load_kind(path, cocos, GCP_SPL_SEPTIC, out, err);
+}
+
+int gcp_eqdsk_load_kind(const char *path, int cocos, int kind, struct gcp_field **out,
+                        struct gcp_error *err)
+{
     *out = NULL;
+    if (kind != GCP_SPL_SEPTIC && kind != GCP_SPL_QUINTIC)
+        return gcp_error_set(err, GCP_ERR_STATE, "eqdsk: spline kind %d", kind);
     if (cocos < 0 || cocos > 8)
         return gcp_error_set(err, GCP_ERR_VALUE, "eqdsk: cocos must be 1..8 (or 0: identify), "
                              "got %d", cocos);
@@ -314,12 +333,13 @@ int gcp_field_eqdsk_load(const char *path, int cocos, struct gcp_field **out,
         const double x0[2] = {in->rleft, in->zmid - 0.5 * in->zdim};
         const double hh[2] = {in->rdim / (double)(nw - 1), in->zdim / (double)(nh - 1)};
         const double *d1[1] = {psirz};
-        if ((rc = gcp_spl_build(&e->psi, 2, GCP_SPL_QUINTIC, n2, x0, hh, 1, d1, err))) goto fail;
+        if ((rc = gcp_spl_build(&e->psi, 2, kind, n2, x0, hh, 1, d1, err))) goto fail;
         e->Rmin = 1e-9 * hh[0];
+        e->kind = kind;
         const size_t n1[1] = {NW};
         const double p0[1] = {0.0}, ph[1] = {1.0};
         const double *dp[3] = {fpol, qpsi, pres};
-        if ((rc = gcp_spl_build(&e->prof, 1, GCP_SPL_QUINTIC, n1, p0, ph, 3, dp, err))) goto fail;
+        if ((rc = gcp_spl_build(&e->prof, 1, kind, n1, p0, ph, 3, dp, err))) goto fail;
     }
     struct gcp_field *f = gcp_field_alloc(&gcp_field_eqdsk, 0);
     if (!f) {
@@ -440,7 +460,7 @@ static int eqdsk_psi(const struct gcp_field *f, const double x[3], double *psi)
 
 const struct gcp_field_type gcp_field_eqdsk = {
     .name = "eqdsk",
-    .doc = "tokamak equilibrium from a G-EQDSK file (psi biquintic, F(psi) spline): file, [cocos]",
+    .doc = "tokamak equilibrium from a G-EQDSK file (psi biseptic, F(psi) spline): file, [cocos]",
     .eval = eqdsk_eval,
     .eval_block = eqdsk_eval_block,
     .destroy = eqdsk_destroy,
@@ -480,7 +500,7 @@ double gcp_field_eqdsk_q(const struct gcp_field *f, double psiN) { return eqdsk_
 double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 0, psiN); }
 
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
- * (fields/flux_priv.h), from the same biquintic spline as eval. */
+ * (fields/flux_priv.h), from the same spline as eval. */
 #include "flux_priv.h"
 
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6])
@@ -509,4 +529,11 @@ int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, d
     *Za = e->info.zmaxis;
     *pe = e->s_pol * e->info.sibry;
     return 0;
+}
+
+/* psi's continuity (flux_priv.h): C6 septic, C4 quintic (the test's legacy). */
+int gcp_eqdsk_psi_continuity(const struct gcp_field *f)
+{
+    const struct eqdsk_params *e = f->params;
+    return e->kind == GCP_SPL_SEPTIC ? 6 : 4;
 }

@@ -15,6 +15,17 @@ int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6
     return GCP_ERR_STATE;
 }
 
+int gcp_field_psi_continuity(const struct gcp_field *f)
+{
+    if (f->type == &gcp_field_tokamak) return GCP_PSI_ANALYTIC;
+    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_psi_continuity(f);
+    double x0[2], h[2];
+    size_t n[2];
+    /* a grid's psi: the bicubic spline (C2), or the bilinear (C0) */
+    if (f->type == &gcp_field_grid) return gcp_grid_psi_lattice(f, x0, h, n) ? 0 : 2;
+    return 0;
+}
+
 int gcp_field_flux_surfaces(const struct gcp_field *f, double *R_axis, double *Z_axis,
                             double *psi_edge)
 {

@@ -18,6 +18,14 @@
  * still finite), or GCP_ERR_STATE for a model without a flux function. */
 int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
 
+/* k such that the model's psi is C^k (its derivatives up to k continuous):
+ * 2 for a grid's bicubic psi, 6 for G-EQDSK's septic spline,
+ * GCP_PSI_ANALYTIC for closed forms; 0 for a model without psi.  Tables
+ * built from psi (the flux chart's, src/pushers/canon_flux_num.c) take it
+ * to choose their own smoothness. */
+#define GCP_PSI_ANALYTIC 1000
+int gcp_field_psi_continuity(const struct gcp_field *f);
+
 /* Where the model's closed flux surfaces are, when it knows: a guess of the
  * magnetic axis (R_axis, Z_axis) [m] and psi_edge [Wb/rad], the flux of the
  * last closed surface (the plasma boundary).  0 or GCP_ERR_STATE. */
@@ -60,6 +68,7 @@ int gcp_tokamak_polchart(const struct gcp_field *f, struct gcp_polchart *out);
 int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6]);
 int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
+int gcp_eqdsk_psi_continuity(const struct gcp_field *f);
 int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
 int gcp_grid_psi_lattice(const struct gcp_field *f, double x0[2], double h[2], size_t n[2]);
 int gcp_grid_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);

@@ -1,6 +1,6 @@
-/* fields/grid_priv.h -- the tensor-product spline core shared by the gridded
- * models (grid.c, eqdsk.c) and the HDF5 grid file reader (grid_io.c).  Not
- * installed.
+/* fields/grid_priv.h -- the tensor-product spline core (spline.c) shared by
+ * the gridded models (grid.c, eqdsk.c), the HDF5 grid file reader
+ * (grid_io.c) and the flux chart's table.  Not installed.
  *
  * A `gcp_spl` holds ncomp scalar fields on one uniform grid of nd = 1, 2 or
  * 3 axes.  Axis 0 varies fastest in memory (x or R), then axis 1 (y or Z),
@@ -31,6 +31,18 @@
  * banded system solved by LU once per axis.  Needs n >= 7 nodes.
  * Error O(h^6) in the value, O(h^{6-k}) in the k-th derivative.
  *
+ * Septic: the interpolating septic B-spline, C6 across cells, for the same
+ * use where a method's error expansion needs the flow's derivatives up to
+ * fourth order continuous (gc-gl4 in a G-EQDSK equilibrium: the flow holds
+ * psi's second derivatives, so C6 psi leaves it C4; fields/eqdsk.c).
+ * Coefficients c_{-3} .. c_{n+2}:
+ *   (c_{i-3} + 120 c_{i-2} + 1191 c_{i-1} + 2416 c_i + 1191 c_{i+1}
+ *    + 120 c_{i+2} + c_{i+3}) / 5040 = f_i
+ * and six end conditions: h f', h^2 f'', h^3 f''' at the end nodes equal
+ * the 9-point one-sided differences (exact for degree 8), solved by LU once
+ * per axis.  Needs n >= 9 nodes.  Error O(h^8) in the value, O(h^{8-k}) in
+ * the k-th derivative.  Cost: 8 coefficients per axis against 6.
+ *
  * Linear: the multilinear interpolant of the node values (C0; its gradient
  * is the exact, piecewise constant, gradient of that interpolant).
  *
@@ -48,15 +60,15 @@
 
 #define GCP_SPL_MAXCOMP 8
 
-enum gcp_spl_kind { GCP_SPL_CUBIC = 0, GCP_SPL_LINEAR = 1, GCP_SPL_QUINTIC = 2 };
+enum gcp_spl_kind { GCP_SPL_CUBIC = 0, GCP_SPL_LINEAR = 1, GCP_SPL_QUINTIC = 2, GCP_SPL_SEPTIC = 3 };
 
 struct gcp_spl {
     int nd;                 /* axes: 1, 2 or 3 */
     int kind;               /* enum gcp_spl_kind */
     int ncomp;              /* scalar fields held */
     size_t n[3];            /* nodes per axis (1 for unused axes) */
-    size_t m[3];            /* stored points per axis: n + 2 (cubic), n + 4 (quintic), n
-                             * (linear); 1 unused */
+    size_t m[3];            /* stored points per axis: n + 2 (cubic), n + 4 (quintic),
+                             * n + 6 (septic), n (linear); 1 unused */
     size_t stride[3];       /* memory stride of each axis in coef */
     double x0[3];           /* [m] first node */
     double h[3];            /* [m] spacing */
@@ -67,7 +79,7 @@ struct gcp_spl {
 
 /* Builds the interpolant of ncomp fields given at the nodes (layout above);
  * data is only read.  Needs n >= 5 nodes on every used axis for the cubic
- * kind, n >= 7 for quintic, n >= 2 for linear.  0 or GCP_ERR_NOMEM / GCP_ERR_VALUE (err set). */
+ * kind, n >= 7 for quintic, n >= 9 for septic, n >= 2 for linear.  0 or GCP_ERR_NOMEM / GCP_ERR_VALUE (err set). */
 int gcp_spl_build(struct gcp_spl *s, int nd, int kind, const size_t n[], const double x0[],
                   const double h[], int ncomp, const double *const data[], struct gcp_error *err);
 void gcp_spl_free(struct gcp_spl *s);
@@ -86,9 +98,9 @@ struct gcp_spl_out {
  * A NaN coordinate counts as outside. */
 struct gcp_spl_loc {
     size_t base;        /* offset of the first coefficient of the stencil */
-    double w[3][6];     /* weights per axis (4 cubic, 6 quintic, 2 linear) */
-    double dw[3][6];    /* d/dx of the weights [1/m] */
-    double ddw[3][6];   /* d2/dx2 [1/m^2] */
+    double w[3][8];     /* weights per axis (4 cubic, 6 quintic, 8 septic, 2 linear) */
+    double dw[3][8];    /* d/dx of the weights [1/m] */
+    double ddw[3][8];   /* d2/dx2 [1/m^2] */
 };
 int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct gcp_spl_loc *loc);
 
@@ -96,7 +108,7 @@ int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct g
 void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c, int order,
                   struct gcp_spl_out *out);
 
-/* ---- 1D cubic splines on a uniform grid (profiles, e.g. F(psi)) ------- */
+/* ---- 1D splines on a uniform grid (profiles, e.g. F(psi)) ------------- */
 
 /* f at u in [0, n-1] grid units (clamped to the range), with f' and f''
  * with respect to u (divide by h, h^2 for physical units). */
@@ -111,6 +123,13 @@ double gcp_spl1_eval(const struct gcp_spl *s, int c, double u, double *du, doubl
 extern const struct gcp_field_type gcp_field_grid;
 extern const struct gcp_field_type gcp_field_eqdsk;
 extern const struct gcp_field_type gcp_field_igrf;
+
+/* gcp_field_eqdsk_load with the spline kind of psi and of the profiles
+ * given: GCP_SPL_SEPTIC (what gcp_field_eqdsk_load uses) or GCP_SPL_QUINTIC
+ * (the interpolant of before, kept for the test that shows it loses gc-gl4's
+ * order, tests/unit/test_gc_symplectic_flux.c). */
+int gcp_eqdsk_load_kind(const char *path, int cocos, int kind, struct gcp_field **out,
+                        struct gcp_error *err);
 
 /* psi of an eqdsk field at (R, Z) (the eqdsk type's psi member). */
 int gcp_eqdsk_psi_RZ(const struct gcp_field *f, double R, double Z, double *psi);

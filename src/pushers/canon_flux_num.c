@@ -22,15 +22,18 @@
  * closed form, inner_A).
  * R, Z, A on a uniform (rho, eta) grid, periodic in eta (padded by NPAD
  * nodes each side: the end conditions of the quintic B-spline decay like
- * 0.43^k into the table, 0.43^40 ~ 2e-15) are interpolated by the C4
- * biquintic spline of fields/grid_priv.h; its derivatives are the chart's,
+ * 0.43^k into the table, 0.43^40 ~ 2e-15; the septic's like 0.54^k, 1.4e-11
+ * of end conditions that are themselves O(h^9) right) are interpolated by
+ * the spline of fields/grid_priv.h: septic (C6) where the field's psi is C6
+ * or smoother (G-EQDSK, analytic), else the C4 biquintic; its derivatives are the chart's,
  * so the chart is exactly canonical in its own coordinates, and
  * approximates the true one-form to the tabulation error (O(h^6) in R, Z,
  * A; O(h^5) in dX/drho, so h_s = b . dX/drho = O(h^5), measured in
  * tests/unit/test_canon_flux.c).  C4 and not C2: the Hamiltonian's
  * gradient holds the table's second derivatives (X_se, X_ee in h_eta's
  * derivatives), so the one-step map's Jacobian holds its third, which a
- * bicubic table makes jump at every cell boundary.
+ * bicubic table makes jump at every cell boundary.  C6 where psi allows:
+ * gc-gl4's fourth order needs the flow C4 (fields/eqdsk.c, "Why C6").
  *
  * Domain: rho <= rho_max = sqrt(psiN_max) (default psi_N <= 0.9: the chart
  * degenerates at the separatrix, where grad psi -> 0 at the X-point); a
@@ -577,7 +580,9 @@ static int table_build(const struct gcp_field *f, double Ra, double Za, double p
     const double x0[2] = {0.0, -GCP_PI - NPAD * deta}, hh[2] = {drho, deta};
     const double *data[3] = {TR, TZ, TA};
     struct gcp_error err = {0};
-    rc = gcp_spl_build(&n->spl, 2, GCP_SPL_QUINTIC, nsz, x0, hh, 3, data, &err);
+    /* as smooth as psi: septic (C6) where psi is C6 or smoother */
+    const int kind = gcp_field_psi_continuity(f) >= 6 ? GCP_SPL_SEPTIC : GCP_SPL_QUINTIC;
+    rc = gcp_spl_build(&n->spl, 2, kind, nsz, x0, hh, 3, data, &err);
     free(tab);
     if (rc) {
         snprintf(why, whylen, "flux chart table: %s", err.msg);

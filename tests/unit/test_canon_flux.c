@@ -363,7 +363,9 @@ static double worst_hs(const struct gcp_canon_chart *c, const struct gcp_polchar
     return w;
 }
 
-/* The tabulated chart (canon_flux_num.c, NRHO x NETA = 128 x 512 biquintic)
+/* The tabulated chart (canon_flux_num.c, NRHO x NETA = 128 x 512; biseptic
+ * for the tokamak and DIII-D, whose psi is C6 or smoother, biquintic for the
+ * grid's bicubic psi)
  * built on the analytic tokamak, whose exact chart is known, then on the
  * DIII-D equilibrium.  The round trip and P_phi are round-off properties, as
  * for the exact chart.  Accuracy: X_s is an O(h^5) derivative of the
@@ -371,16 +373,18 @@ static double worst_hs(const struct gcp_canon_chart *c, const struct gcp_polchar
  * one-form term the chart drops) is ~ (h/L)^5; the flow error (canonical
  * flow against the GC equations) follows it.
  *   Tokamak: the gradient lines are straight rays, which the tensor spline
- *   reproduces exactly (h_s 2e-13); the flow error 2.6e-8 (A_eta and |B|
- *   tabulation) is at the finite-difference level; bound 1e-6.
- *   DIII-D (psi a biquintic spline of the file's 65 x 65 nodes), rho in
- *   [0.2, 0.8] rho_max: h_s 1.2e-8, flow 8.6e-9 (a bicubic table gave
- *   2.7e-5 and 1.5e-5 over [0.2, 0.95]); bounds 1e-7 and 5e-8.  rho in
- *   [0.8, 0.95] rho_max: h_s 1.3e-4, flow 3.5e-5: the gradient lines that
+ *   reproduces exactly (h_s 2e-13); the flow error 3.8e-9 (1.1e-8 with the
+ *   biquintic table; A_eta and |B| tabulation) is at the finite-difference
+ *   level; bound 1e-6.
+ *   DIII-D (psi a biseptic spline of the file's 65 x 65 nodes), rho in
+ *   [0.2, 0.8] rho_max: h_s 1.4e-8, flow 7.6e-9 (biquintic table and psi:
+ *   8.6e-8, 2.4e-8; a bicubic table gave 2.7e-5 and 1.5e-5 over [0.2,
+ *   0.95]); bounds 1e-7 and 5e-8.  rho in [0.8, 0.95] rho_max: h_s 8.0e-5,
+ *   flow 2.3e-5 (biquintic 4.9e-5, 2.0e-5): the gradient lines that
  *   pass near the X-point turn sharply there (|grad psi| -> 0), so L is
  *   small and (h/L)^5 large (the bicubic table: 2.4e-4 in [0.9, 0.95]);
- *   bounds 5e-4 and 1e-4.  Near the axis, rho < 0.2 rho_max: h_s 2.1e-3,
- *   flow 2.8e-4 (bicubic: 3.3e-3, 6.2e-4).  An orthogonal chart is
+ *   bounds 5e-4 and 1e-4.  Near the axis, rho < 0.2 rho_max: h_s 1.3e-3,
+ *   flow 3.6e-5 (biquintic 2.9e-3, 8.9e-5; bicubic: 3.3e-3, 6.2e-4).  An orthogonal chart is
  *   singular at an elongated axis: the gradient lines of psi ~ a x^2 + b y^2 are y ~ x^(b/a), all tangent to one
  *   axis direction, so the eta lines bunch there whatever the table size;
  *   bounds 1e-2 and 2e-3 (x3).  This is the tabulation error the issue asks

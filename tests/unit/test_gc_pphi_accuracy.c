@@ -35,8 +35,8 @@ struct psys {
     double X[3], ppar;
     double Tb; /* [s] bounce period */
     int N;     /* gc-gl4 steps per bounce of the order check (N, 2N) */
-    /* the tabulated (C4) flux chart: the order check over N, 4N, asserted
-     * at least third order (test_gc_symplectic_flux.c, order_check) */
+    /* the tabulated flux chart: the order check over N, 4N, asserted at
+     * least third order (the clean 16 is test_gc_symplectic_flux.c's) */
     int tabulated;
     /* the wrong dynamics with an exact P_phi: gc-midpoint-pphi at 10 steps
      * per bounce, or gc-gl2 at 25 where gc-midpoint-pphi has no vector
@@ -155,15 +155,18 @@ static double dist(const double a[3], const double b[3])
  *   of the chart's Newton, ~1e-16 per step over <= 400 steps: bound 1e-13.
  *   gc-gl4 against gc-rk8pd: the position error after one bounce at h and
  *   h/2 has the ratio 2^4 within 10% (measured 16.02, 15.99 at N = 100 in
- *   the dipole and the tokamak); in DIII-D, whose tabulated chart and psi
- *   are C4 splines (F only C2: no clean fourth-order ratio once the error
- *   is below ~1e-8 m, see test_gc_symplectic_flux.c), at h and h/4 from
- *   N = 50, at least third order: ratio >= 0.9 x 2^6 (measured 316);
+ *   the dipole and the tokamak); in DIII-D, at h and h/4 from N = 50, at
+ *   least third order: ratio >= 0.9 x 2^6 (measured 2126; 316 with the
+ *   quintic splines of before).  Not 16 at one halving: below N ~ 300 the
+ *   splines' cell boundaries scatter gc-gl4's error (10x at N = 40 .. 60),
+ *   and from there on its error is below the tabulated chart's floor
+ *   against gc-rk8pd in X (~1e-9 m); test_gc_symplectic_flux.c asserts
+ *   the clean 16 against the chart's own flow at N = 300 .. 1200;
  *   and P_phi of the two agree to the reference's bound
  *   (measured 2.3e-15, 2.8e-13, 1.7e-13: gc-rk8pd's own drift).
  *   The wrong dynamics: the same P_phi (measured <= 1.7e-15), while its
  *   state is off by more than 100x gc-gl4's error at N steps per bounce
- *   (measured 9e4x, 1e6x, 5e3x): an accuracy test at gc-gl4's tolerance
+ *   (measured 9e4x, 1e6x, 2.3e3x): an accuracy test at gc-gl4's tolerance
  *   fails it. */
 static void pphi_check(struct psys *S, double rk8_bound)
 {
