@@ -34,8 +34,9 @@
  * (the full-orbit gyro-average, the loss-cone classification),
  * invariants_samples.c (what particles that do not bounce get: cadence
  * samples, the stream's drift contour, the reasons a quantity is missing). */
-#define _DEFAULT_SOURCE /* madvise, MADV_HUGEPAGE (Linux): gcp_events_push */
+#define _GNU_SOURCE /* mremap, MADV_HUGEPAGE (Linux): gcp_events_push */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef __linux__
@@ -49,33 +50,94 @@
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
 
-/* Event storage of cap events, the first n copied from old (freed).  A run
- * with invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
+/* Event storage of cap events, the first n kept from old.  A run with
+ * invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
  * half-bounce, a bounce row per bounce): tens of MB written once, where the
- * first touch of each 4 KiB page is a page fault (~16 us each in a
- * paravirtualised VM, measured: 0.33 s for 83 MB, a third of what the
- * observer cost a gc-rk4 run).  From 2 MiB on, the storage is aligned to
- * 2 MiB and offered to the kernel for transparent huge pages: one fault per
- * 2 MiB.  The copy on growth is the one realloc would make. */
-static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t cap)
+ * first touch of each page is a fault that zeroes it (~16 us per 4 KiB page
+ * in a paravirtualised VM: 0.33 s for 83 MB, a third of what the observer
+ * cost a gc-rk4 run).  From 2 MiB on the storage is its own mapping,
+ * aligned to 2 MiB and offered to the kernel for transparent huge pages
+ * (one fault per 2 MiB), and on Linux it grows by mremap onto a new 2 MiB
+ * aligned range: the kernel moves the page tables (whole huge pages), so
+ * growth neither copies the events nor faults and zeroes the pages a
+ * second time.  Doubling with a copy did both: ~2x the final storage
+ * zeroed, ~1x copied (measured, 2048 protons of 1 MeV with gc-rk4,
+ * tests/bench/observer.sh: perf put 18% of the push there). */
+#define EV_HUGE ((size_t)2 << 20)
+
+static size_t events_bytes(int64_t cap) { return (size_t)cap * sizeof(struct gcp_event); }
+/* Whether cap events live in a mapping of their own (else malloc). */
+static int events_mapped(int64_t cap) { return events_bytes(cap) >= EV_HUGE; }
+static size_t events_map_size(int64_t cap) { return (events_bytes(cap) + EV_HUGE - 1) / EV_HUGE * EV_HUGE; }
+
+#if defined(__linux__) && defined(MREMAP_MAYMOVE) && defined(MREMAP_FIXED)
+/* A 2 MiB aligned range of len bytes (a multiple of 2 MiB), reserved
+ * (no access, no memory) for mremap to move onto; NULL when none. */
+static void *aligned_range(size_t len, int prot)
 {
-    const size_t huge = (size_t)2 << 20, bytes = (size_t)cap * sizeof *old;
-    if (bytes < huge) return realloc(old, bytes);
-    void *p = NULL;
-    if (posix_memalign(&p, huge, (bytes + huge - 1) / huge * huge)) return NULL;
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    (void)madvise(p, (bytes + huge - 1) / huge * huge, MADV_HUGEPAGE); /* a hint: failure is harmless */
+    unsigned char *r = mmap(NULL, len + EV_HUGE, prot, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE,
+                            -1, 0);
+    if (r == MAP_FAILED) return NULL;
+    const size_t head = (EV_HUGE - (uintptr_t)r % EV_HUGE) % EV_HUGE;
+    if (head) munmap(r, head);
+    if (EV_HUGE - head) munmap(r + head + len, EV_HUGE - head);
+    return r + head;
+}
+
+static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+{
+    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
+    const size_t len = events_map_size(cap);
+    if (ocap && events_mapped(ocap)) {
+        void *to = aligned_range(len, PROT_NONE);
+        if (!to) return NULL;
+        void *p = mremap(old, events_map_size(ocap), len, MREMAP_MAYMOVE | MREMAP_FIXED, to);
+        if (p == MAP_FAILED) {
+            munmap(to, len);
+            return NULL;
+        }
+        return p;
+    }
+    struct gcp_event *p = aligned_range(len, PROT_READ | PROT_WRITE);
+    if (!p) return NULL;
+#ifdef MADV_HUGEPAGE
+    (void)madvise(p, len, MADV_HUGEPAGE); /* a hint: failure is harmless */
 #endif
     if (n) memcpy(p, old, (size_t)n * sizeof *old);
     free(old);
     return p;
 }
 
+static void events_release(struct gcp_event *e, int64_t cap)
+{
+    if (e && events_mapped(cap)) munmap(e, events_map_size(cap));
+    else free(e);
+}
+#else
+/* Elsewhere: 2 MiB aligned storage, copied on growth as realloc would. */
+static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+{
+    (void)ocap;
+    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
+    void *p = NULL;
+    if (posix_memalign(&p, EV_HUGE, events_map_size(cap))) return NULL;
+    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    free(old);
+    return p;
+}
+
+static void events_release(struct gcp_event *e, int64_t cap)
+{
+    (void)cap;
+    free(e);
+}
+#endif
+
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
-        struct gcp_event *p = events_grow(ev->e, ev->n, cap);
+        struct gcp_event *p = events_grow(ev->e, ev->n, ev->cap, cap);
         if (!p) return GCP_ERR_NOMEM;
         ev->e = p;
         ev->cap = cap;
@@ -86,7 +148,7 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 
 void gcp_events_free(struct gcp_events *ev)
 {
-    free(ev->e);
+    events_release(ev->e, ev->cap);
     memset(ev, 0, sizeof *ev);
 }
 
