@@ -205,18 +205,16 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
                     &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
                     &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev,
                     &o->Gb, &o->Gp2, &o->Gjd,
-                    &o->hot.s1[0], &o->hot.s1[1], &o->hot.s1[2], &o->hot.s1[3],
-                    &o->hot.s1[4], &o->hot.s1[5], &o->hot.s1[6], &o->hot.s1[7],
-                    &o->hot.s0[0], &o->hot.s0[1], &o->hot.s0[2], &o->hot.s0[3],
-                    &o->hot.s0[4], &o->hot.s0[5], &o->hot.s0[6], &o->hot.s0[7],
-                    &o->hot.jd1, &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,
+                    &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,
                     &o->hot.cx, &o->hot.cy};
-    const size_t nv = sizeof v / sizeof v[0];
-    o->gmem = calloc(nv * n, sizeof(double));
+    const size_t nv = sizeof v / sizeof v[0], nr = 3 * GCP_OBS_RING_NV;
+    o->gmem = calloc((nv + nr) * n, sizeof(double));
     o->gflags = calloc(9 * n, sizeof(int64_t));
     int fail = !o->gmem || !o->gflags;
     if (!fail) {
         for (size_t k = 0; k < nv; k++) *v[k] = o->gmem + k * n;
+        for (size_t k = 0; k < nr; k++)
+            o->hot.r[k / GCP_OBS_RING_NV][k % GCP_OBS_RING_NV] = o->gmem + (nv + k) * n;
         g->init = o->gflags, g->left = o->gflags + n, o->special = o->gflags + 2 * n;
         o->active = o->gflags + 3 * n;
         o->hot.have = o->gflags + 4 * n, o->hot.next = o->gflags + 5 * n;
@@ -571,44 +569,56 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
                                NULL, o->fst);
     }
     if (o->stream && !gc && n) gcp_obs_fo_block(o, b, t);
+    /* dense: the lanes' indices are still 0 .. n-1 and all begun (a block
+     * before its first retirement), tested as one vectorised reduction */
+    int dense = n <= o->nlanes;
+    if (dense) {
+        const size_t *restrict idx = b->index;
+        const int64_t *restrict act = o->active;
+        size_t off = 0;
+        int64_t on = 1;
+        for (size_t i = 0; i < n; i++) off |= idx[i] ^ i, on &= act[i];
+        dense = off == 0 && on;
+    }
     if (o->stream && gc && n) {
-        /* |B|, p^2 and the J integrand of every lane in one vectorised pass
-         * (the same expressions as jdot's: bit-identical), the rest per lane */
-        const double m = o->m;
-        const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
-        const double *restrict ppar = b->ppar, *restrict mu = b->mu;
-        double *restrict Gb = o->Gb, *restrict Gp2 = o->Gp2, *restrict Gjd = o->Gjd;
-        GCP_OBS_IVDEP
-        for (size_t i = 0; i < n; i++) {
-            Gb[i] = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
-            Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
-            Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
-        }
         /* the quiet pass needs every live lane begun (always, after
          * gcp_observer_begin), and no other source of stream samples */
         int all = o->gc && !o->hybrid;
-        for (size_t i = 0; all && i < n; i++)
+        for (size_t i = 0; all && !dense && i < n; i++)
             all = b->index[i] < o->nlanes && o->active[b->index[i]];
         if (all) {
-            gcp_obs_stream_quiet(o, b, t, n);
+            gcp_obs_stream_quiet(o, b, t, n, dense);
         } else {
+            /* |B|, p^2 and the J integrand of every lane in one vectorised
+             * pass (the same expressions as jdot's: bit-identical), the
+             * rest per lane */
+            const double m = o->m;
+            const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
+            const double *restrict ppar = b->ppar, *restrict mu = b->mu;
+            double *restrict Gb = o->Gb, *restrict Gp2 = o->Gp2, *restrict Gjd = o->Gjd;
+            GCP_OBS_IVDEP
+            for (size_t i = 0; i < n; i++) {
+                Gb[i] = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
+                Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
+                Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
+            }
+            const int hot = o->gc && !o->hybrid, c = (o->hot.cur + 1) % 3;
             for (size_t i = 0; i < n; i++) {
                 const size_t li = b->index[i];
                 if (li >= o->nlanes || !o->active[li]) continue;
                 const struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]},
                                           .ppar = ppar[i], .mu = mu[i], .B = Gb[i], .p2 = Gp2[i]};
                 struct lane *L = &o->lane[li];
-                if (o->gc && !o->hybrid) gcp_obs_hot_to_lane(o, L, li);
+                if (hot) gcp_obs_hot_to_lane(o, L, li);
                 gcp_obs_stream_sample_jd(o, L, o->id0 + (int64_t)li, &s, Gjd[i]);
-                if (o->gc && !o->hybrid) gcp_obs_lane_to_hot(o, L, li);
+                if (hot) gcp_obs_lane_to_hot(o, L, li, c);
             }
+            if (hot) o->hot.cur = c;
         }
     }
     /* the last live position (loss interpolation): densely, as a copy, while
      * the lanes' indices are still 0 .. n-1 and all begun (it cost as much
      * as half a fused boris step per lane as a per-lane loop) */
-    int dense = n <= o->nlanes;
-    for (size_t i = 0; dense && i < n; i++) dense = b->index[i] == i && o->active[i];
     if (dense) {
         memcpy(o->xprev[0], b->x, n * sizeof(double));
         memcpy(o->xprev[1], b->y, n * sizeof(double));
@@ -642,7 +652,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         o->active[li] = 1;
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
-        gcp_obs_lane_to_hot(o, L, li);
+        gcp_obs_lane_to_hot(o, L, li, o->hot.cur);
         o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
         o->tprev[li] = t0;
     }
