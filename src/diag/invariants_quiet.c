@@ -89,7 +89,9 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * due, the azimuth within pi/4 of the contour's last point (azimuth_moved's
  * first test).  Those steps are one vectorised pass with stream_sample's
  * expressions, and |B|, p^2 and the J integrand with observe_live's
- * (bit-identical); the others go through gcp_obs_stream_sample_jd.  The
+ * (bit-identical).  The sample after a minimum (twice a bounce) takes the
+ * same sums here and only its e0, e1, e2 per lane (slow = 2); the others
+ * (mirror points, cadence times) go through gcp_obs_stream_sample_jd.  The
  * pass writes every lane's sample into the ring's next slot c, quiet or
  * not (a lane that is not gets the same values from lane_to_hot), and
  * leaves the slot before the latest (e0 of a lane whose minimum waits)
@@ -126,18 +128,22 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
         const double margin = 1e-9 * (fabs(x[i]) + fabs(y[i]));
         const int64_t still = !az[li] | (dot - fabs(crs) > margin);
         const int64_t newmin = Gb < Bmin[li];
-        const int64_t quiet = have[li] & ((pp1[li] > 0) == (pp[i] > 0)) & (tnext[li] > t) &
-                              still & (newmin | !next[li]);
-        slow[i] = !quiet;
+        /* calm: the trapezoid sums and the minimum are all that happens,
+         * but for the sample after a minimum (after), which stream_sample
+         * would only take as e2 */
+        const int64_t calm = have[li] & ((pp1[li] > 0) == (pp[i] > 0)) & (tnext[li] > t) & still;
+        const int64_t after = calm & next[li] & !newmin;
+        const int64_t quiet = calm & !after;
+        slow[i] = (int64_t)!calm | (after << 1);
         const double h = t - t1[li];
         const double Jn = J[li] + 0.5 * (jd1[li] + Gjd) * h;
         const double mn = mub[li] + 0.5 * (mu1[li] + mu[i]) * h;
         const int64_t nm = quiet & newmin;
         Bmin[li] = nm ? Gb : Bmin[li];
-        next[li] = nm | next[li];
+        next[li] = (nm | next[li]) & !after;
         hprev[li] = nm | hprev[li];
-        J[li] = quiet ? Jn : J[li];
-        mub[li] = quiet ? mn : mub[li];
+        J[li] = calm ? Jn : J[li];
+        mub[li] = calm ? mn : mub[li];
         tc[li] = t, X0[li] = x[i], X1[li] = y[i], X2[li] = z[i];
         ppc[li] = pp[i], muc[li] = mu[i], Bc[li] = Gb, p2c[li] = Gp2, jdc[li] = Gjd;
     }
@@ -152,11 +158,23 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
     const size_t *idx = b->index;
     if (dense) stream_quiet_pass(o, b, t, n, NULL);
     else stream_quiet_pass(o, b, t, n, idx);
-    const int c = (o->hot.cur + 1) % 3;
+    const int p = o->hot.cur, c = (p + 1) % 3;
     for (size_t i = 0; i < n; i++) {
         if (!o->hot.slow[i]) continue;
         const size_t li = idx[i];
         struct lane *L = &o->lane[li];
+        if (o->hot.slow[i] == 2) {
+            /* the sample after the minimum s1 (the pass took its sums and
+             * cleared next): stream_sample's e0, e1, e2 and flags from the
+             * ring, the sample before s1, s1 and this one */
+            L->e0 = gs_get(o->hot.r[(p + 2) % 3], li);
+            L->e1 = gs_get(o->hot.r[p], li);
+            L->e2 = gs_get(o->hot.r[c], li);
+            L->eq_Bmin = o->hot.Bmin[li];
+            L->eq_has_prev = L->eq_valid = (int)o->hot.hprev[li];
+            L->eq_need_next = 0;
+            continue;
+        }
         /* the pass's values of this step, in slot c */
         const struct gsample s = gs_get(o->hot.r[c], li);
         gcp_obs_hot_to_lane(o, L, li);
