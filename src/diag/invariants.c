@@ -583,7 +583,7 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
     if (o->stream && gc && n) {
         /* the quiet pass needs every live lane begun (always, after
          * gcp_observer_begin), and no other source of stream samples */
-        int all = o->gc && !o->hybrid;
+        int all = o->gc && !o->hybrid && !o->hot.per_lane;
         for (size_t i = 0; all && !dense && i < n; i++)
             all = b->index[i] < o->nlanes && o->active[b->index[i]];
         if (all) {

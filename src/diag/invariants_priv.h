@@ -123,6 +123,12 @@ struct gcp_observer {
         int64_t *az;    /* the stream contour's azimuth is watched */
         int64_t *slow;  /* scratch: lane position i needs stream_sample */
         int cur;        /* the ring slot of the latest sample */
+        /* tests (test_invariants_quiet.c): per_lane sends every step of
+         * every lane through gcp_obs_stream_sample_jd, the reference the
+         * quiet pass must equal bit for bit; passes counts the steps that
+         * went through the quiet pass */
+        int per_lane;
+        int64_t passes;
     } hot;
     struct gyro g;
     /* per lane li, dense, as they are written at every step: begun in this

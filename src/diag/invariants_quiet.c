@@ -158,6 +158,7 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
     const size_t *idx = b->index;
     if (dense) stream_quiet_pass(o, b, t, n, NULL);
     else stream_quiet_pass(o, b, t, n, idx);
+    o->hot.passes++;
     const int p = o->hot.cur, c = (p + 1) % 3;
     for (size_t i = 0; i < n; i++) {
         if (!o->hot.slow[i]) continue;
