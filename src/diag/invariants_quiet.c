@@ -12,7 +12,18 @@
  * 2048 protons of 1 MeV in the dipole, old and new binaries interleaved on a
  * shared core, with the events storage of gcp_events_push): the observer's
  * cost over the bare push fell from ~1.0x to 0.6-0.8x for gc-rk4 and from
- * ~0.2x to 0.03-0.1x for gc-gl4. */
+ * ~0.2x to 0.03-0.1x for gc-gl4.
+ *
+ * With the fused gc-rk4 step (8.7 ns a lane-step) that observer cost ~1.9x
+ * the push again; the ring, |B|, p^2 and jd in the pass, the sample after a
+ * minimum in the pass and the events grown in place brought it to ~1.25x
+ * (best of 9, interleaved: 0.477 -> 0.383 s over a 0.17 s push).  What is
+ * left, by perf (share of the observer's time): the per-event work ~60%
+ * (mirror points, equator points: three atan2 + hypot + A(X) each for the
+ * drift contour, ~25%; the kernel zeroing the 83 MB of 136-byte event
+ * rows, ~15%), this pass ~17% (bound by its two square roots and two
+ * divisions a lane-step, ~2.5 ns), B at the lanes ~4%.  The fused tile
+ * taking one step per call costs ~10% (0.03 s). */
 #include <math.h>
 #include <stdint.h>
 
