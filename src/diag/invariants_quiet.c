@@ -20,10 +20,11 @@
  * (best of 9, interleaved: 0.477 -> 0.383 s over a 0.17 s push).  What is
  * left, by perf (share of the observer's time): the per-event work ~60%
  * (mirror points, equator points: three atan2 + hypot + A(X) each for the
- * drift contour, ~25%; the kernel zeroing the 83 MB of 136-byte event
- * rows, ~15%), this pass ~17% (bound by its two square roots and two
- * divisions a lane-step, ~2.5 ns), B at the lanes ~4%.  The fused tile
- * taking one step per call costs ~10% (0.03 s). */
+ * drift contour, ~25%; storing the 83 MB of 136-byte event rows, mostly
+ * the kernel zeroing fresh pages, ~14%), this pass ~17% (bound by its two
+ * square roots and two divisions a lane-step, ~2.5 ns), B at the lanes
+ * ~4%.  The fused tile taking one step per call, with the last-position
+ * copy, ~0.03 s (a run with only `events = loss`). */
 #include <math.h>
 #include <stdint.h>
 
