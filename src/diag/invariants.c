@@ -521,7 +521,15 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     if (!(o->opts.events & GCP_EVT_LOSS)) return;
     const double xe[3] = {b->x[i], b->y[i], b->z[i]};
     const size_t li = b->index[i];
-    const double xp[3] = {o->xprev[0][li], o->xprev[1][li], o->xprev[2][li]}, tp = o->tprev[li];
+    /* the last live position: the ring's latest sample where the last
+     * step went through the quiet pass and sampled this lane (observe_live
+     * then skips xprev); a lane retires at the first sampling after it
+     * stops, so that sample was its last live one */
+    const int ring = o->hot.pos && o->hot.have[li];
+    double *const *r = o->hot.r[o->hot.cur];
+    const double xp[3] = {ring ? r[1][li] : o->xprev[0][li], ring ? r[2][li] : o->xprev[1][li],
+                          ring ? r[3][li] : o->xprev[2][li]};
+    const double tp = ring ? r[0][li] : o->tprev[li];
     struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
     memcpy(e.v, xe, sizeof xe);
     /* the crossing of the sphere r = r_inner (or r_outer) within the last
@@ -588,6 +596,9 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
             all = b->index[i] < o->nlanes && o->active[b->index[i]];
         if (all) {
             gcp_obs_stream_quiet(o, b, t, n, dense);
+            /* the ring holds the last live positions (loss) */
+            o->hot.pos = 1;
+            return;
         } else {
             /* |B|, p^2 and the J integrand of every lane in one vectorised
              * pass (the same expressions as jdot's: bit-identical), the
@@ -616,6 +627,7 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
             if (hot) o->hot.cur = c;
         }
     }
+    o->hot.pos = 0;
     /* the last live position (loss interpolation): densely, as a copy, while
      * the lanes' indices are still 0 .. n-1 and all begun (it cost as much
      * as half a fused boris step per lane as a per-lane loop) */
@@ -641,6 +653,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
     o->id0 = id0;
     o->t0 = t0;
     o->ev_begin = out->n;
+    o->hot.pos = 0;
     o->q = b->q;
     o->m = b->m;
     for (size_t i = 0; i < b->n; i++) {

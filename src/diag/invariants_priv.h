@@ -123,6 +123,10 @@ struct gcp_observer {
         int64_t *az;    /* the stream contour's azimuth is watched */
         int64_t *slow;  /* scratch: lane position i needs stream_sample */
         int cur;        /* the ring slot of the latest sample */
+        /* the last observe_live went through the quiet pass: the ring's
+         * latest slot holds every lane's last live position and time
+         * (loss interpolation), and xprev, tprev were not written */
+        int pos;
         /* tests (test_invariants_quiet.c): per_lane sends every step of
          * every lane through gcp_obs_stream_sample_jd, the reference the
          * quiet pass must equal bit for bit; passes counts the steps that

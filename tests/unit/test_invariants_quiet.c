@@ -8,7 +8,9 @@
  * that never mirrors, and the stream contour), a drift turn (10 MeV at
  * L = 6 drifts around in ~50 s), and a loss in the first bounce (pitch
  * 1.5 deg at L = 6, inside the loss cone of ~2.8 deg), after which the block's lanes are
- * no longer in index order (the pass's indexed form).  A second reference
+ * no longer in index order (the pass's indexed form), and whose loss row
+ * interpolates from the ring's last sample (the reference: from xprev).  A
+ * second reference
  * run with one lane's mu moved by one ulp shows that the comparison sees a
  * last-bit difference.
  *
