@@ -34,8 +34,9 @@
  * (the full-orbit gyro-average, the loss-cone classification),
  * invariants_samples.c (what particles that do not bounce get: cadence
  * samples, the stream's drift contour, the reasons a quantity is missing). */
-#define _DEFAULT_SOURCE /* madvise, MADV_HUGEPAGE (Linux): gcp_events_push */
+#define _GNU_SOURCE /* mremap, MADV_HUGEPAGE (Linux): gcp_events_push */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef __linux__
@@ -49,33 +50,94 @@
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
 
-/* Event storage of cap events, the first n copied from old (freed).  A run
- * with invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
+/* Event storage of cap events, the first n kept from old.  A run with
+ * invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
  * half-bounce, a bounce row per bounce): tens of MB written once, where the
- * first touch of each 4 KiB page is a page fault (~16 us each in a
- * paravirtualised VM, measured: 0.33 s for 83 MB, a third of what the
- * observer cost a gc-rk4 run).  From 2 MiB on, the storage is aligned to
- * 2 MiB and offered to the kernel for transparent huge pages: one fault per
- * 2 MiB.  The copy on growth is the one realloc would make. */
-static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t cap)
+ * first touch of each page is a fault that zeroes it (~16 us per 4 KiB page
+ * in a paravirtualised VM: 0.33 s for 83 MB, a third of what the observer
+ * cost a gc-rk4 run).  From 2 MiB on the storage is its own mapping,
+ * aligned to 2 MiB and offered to the kernel for transparent huge pages
+ * (one fault per 2 MiB), and on Linux it grows by mremap onto a new 2 MiB
+ * aligned range: the kernel moves the page tables (whole huge pages), so
+ * growth neither copies the events nor faults and zeroes the pages a
+ * second time.  Doubling with a copy did both: ~2x the final storage
+ * zeroed, ~1x copied (measured, 2048 protons of 1 MeV with gc-rk4,
+ * tests/bench/observer.sh: perf put 18% of the push there). */
+#define EV_HUGE ((size_t)2 << 20)
+
+static size_t events_bytes(int64_t cap) { return (size_t)cap * sizeof(struct gcp_event); }
+/* Whether cap events live in a mapping of their own (else malloc). */
+static int events_mapped(int64_t cap) { return events_bytes(cap) >= EV_HUGE; }
+static size_t events_map_size(int64_t cap) { return (events_bytes(cap) + EV_HUGE - 1) / EV_HUGE * EV_HUGE; }
+
+#if defined(__linux__) && defined(MREMAP_MAYMOVE) && defined(MREMAP_FIXED)
+/* A 2 MiB aligned range of len bytes (a multiple of 2 MiB), reserved
+ * (no access, no memory) for mremap to move onto; NULL when none. */
+static void *aligned_range(size_t len, int prot)
 {
-    const size_t huge = (size_t)2 << 20, bytes = (size_t)cap * sizeof *old;
-    if (bytes < huge) return realloc(old, bytes);
-    void *p = NULL;
-    if (posix_memalign(&p, huge, (bytes + huge - 1) / huge * huge)) return NULL;
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    (void)madvise(p, (bytes + huge - 1) / huge * huge, MADV_HUGEPAGE); /* a hint: failure is harmless */
+    unsigned char *r = mmap(NULL, len + EV_HUGE, prot, MAP_PRIVATE | MAP_ANONYMOUS | MAP_NORESERVE,
+                            -1, 0);
+    if (r == MAP_FAILED) return NULL;
+    const size_t head = (EV_HUGE - (uintptr_t)r % EV_HUGE) % EV_HUGE;
+    if (head) munmap(r, head);
+    if (EV_HUGE - head) munmap(r + head + len, EV_HUGE - head);
+    return r + head;
+}
+
+static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+{
+    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
+    const size_t len = events_map_size(cap);
+    if (ocap && events_mapped(ocap)) {
+        void *to = aligned_range(len, PROT_NONE);
+        if (!to) return NULL;
+        void *p = mremap(old, events_map_size(ocap), len, MREMAP_MAYMOVE | MREMAP_FIXED, to);
+        if (p == MAP_FAILED) {
+            munmap(to, len);
+            return NULL;
+        }
+        return p;
+    }
+    struct gcp_event *p = aligned_range(len, PROT_READ | PROT_WRITE);
+    if (!p) return NULL;
+#ifdef MADV_HUGEPAGE
+    (void)madvise(p, len, MADV_HUGEPAGE); /* a hint: failure is harmless */
 #endif
     if (n) memcpy(p, old, (size_t)n * sizeof *old);
     free(old);
     return p;
 }
 
+static void events_release(struct gcp_event *e, int64_t cap)
+{
+    if (e && events_mapped(cap)) munmap(e, events_map_size(cap));
+    else free(e);
+}
+#else
+/* Elsewhere: 2 MiB aligned storage, copied on growth as realloc would. */
+static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+{
+    (void)ocap;
+    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
+    void *p = NULL;
+    if (posix_memalign(&p, EV_HUGE, events_map_size(cap))) return NULL;
+    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    free(old);
+    return p;
+}
+
+static void events_release(struct gcp_event *e, int64_t cap)
+{
+    (void)cap;
+    free(e);
+}
+#endif
+
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
-        struct gcp_event *p = events_grow(ev->e, ev->n, cap);
+        struct gcp_event *p = events_grow(ev->e, ev->n, ev->cap, cap);
         if (!p) return GCP_ERR_NOMEM;
         ev->e = p;
         ev->cap = cap;
@@ -86,7 +148,7 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 
 void gcp_events_free(struct gcp_events *ev)
 {
-    free(ev->e);
+    events_release(ev->e, ev->cap);
     memset(ev, 0, sizeof *ev);
 }
 
@@ -143,18 +205,16 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
                     &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
                     &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev,
                     &o->Gb, &o->Gp2, &o->Gjd,
-                    &o->hot.s1[0], &o->hot.s1[1], &o->hot.s1[2], &o->hot.s1[3],
-                    &o->hot.s1[4], &o->hot.s1[5], &o->hot.s1[6], &o->hot.s1[7],
-                    &o->hot.s0[0], &o->hot.s0[1], &o->hot.s0[2], &o->hot.s0[3],
-                    &o->hot.s0[4], &o->hot.s0[5], &o->hot.s0[6], &o->hot.s0[7],
-                    &o->hot.jd1, &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,
+                    &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,
                     &o->hot.cx, &o->hot.cy};
-    const size_t nv = sizeof v / sizeof v[0];
-    o->gmem = calloc(nv * n, sizeof(double));
+    const size_t nv = sizeof v / sizeof v[0], nr = 3 * GCP_OBS_RING_NV;
+    o->gmem = calloc((nv + nr) * n, sizeof(double));
     o->gflags = calloc(9 * n, sizeof(int64_t));
     int fail = !o->gmem || !o->gflags;
     if (!fail) {
         for (size_t k = 0; k < nv; k++) *v[k] = o->gmem + k * n;
+        for (size_t k = 0; k < nr; k++)
+            o->hot.r[k / GCP_OBS_RING_NV][k % GCP_OBS_RING_NV] = o->gmem + (nv + k) * n;
         g->init = o->gflags, g->left = o->gflags + n, o->special = o->gflags + 2 * n;
         o->active = o->gflags + 3 * n;
         o->hot.have = o->gflags + 4 * n, o->hot.next = o->gflags + 5 * n;
@@ -461,7 +521,15 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     if (!(o->opts.events & GCP_EVT_LOSS)) return;
     const double xe[3] = {b->x[i], b->y[i], b->z[i]};
     const size_t li = b->index[i];
-    const double xp[3] = {o->xprev[0][li], o->xprev[1][li], o->xprev[2][li]}, tp = o->tprev[li];
+    /* the last live position: the ring's latest sample where the last
+     * step went through the quiet pass and sampled this lane (observe_live
+     * then skips xprev); a lane retires at the first sampling after it
+     * stops, so that sample was its last live one */
+    const int ring = o->hot.pos && o->hot.have[li];
+    double *const *r = o->hot.r[o->hot.cur];
+    const double xp[3] = {ring ? r[1][li] : o->xprev[0][li], ring ? r[2][li] : o->xprev[1][li],
+                          ring ? r[3][li] : o->xprev[2][li]};
+    const double tp = ring ? r[0][li] : o->tprev[li];
     struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
     memcpy(e.v, xe, sizeof xe);
     /* the crossing of the sphere r = r_inner (or r_outer) within the last
@@ -509,44 +577,60 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
                                NULL, o->fst);
     }
     if (o->stream && !gc && n) gcp_obs_fo_block(o, b, t);
+    /* dense: the lanes' indices are still 0 .. n-1 and all begun (a block
+     * before its first retirement), tested as one vectorised reduction */
+    int dense = n <= o->nlanes;
+    if (dense) {
+        const size_t *restrict idx = b->index;
+        const int64_t *restrict act = o->active;
+        size_t off = 0;
+        int64_t on = 1;
+        for (size_t i = 0; i < n; i++) off |= idx[i] ^ i, on &= act[i];
+        dense = off == 0 && on;
+    }
     if (o->stream && gc && n) {
-        /* |B|, p^2 and the J integrand of every lane in one vectorised pass
-         * (the same expressions as jdot's: bit-identical), the rest per lane */
-        const double m = o->m;
-        const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
-        const double *restrict ppar = b->ppar, *restrict mu = b->mu;
-        double *restrict Gb = o->Gb, *restrict Gp2 = o->Gp2, *restrict Gjd = o->Gjd;
-        GCP_OBS_IVDEP
-        for (size_t i = 0; i < n; i++) {
-            Gb[i] = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
-            Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
-            Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
-        }
         /* the quiet pass needs every live lane begun (always, after
          * gcp_observer_begin), and no other source of stream samples */
-        int all = o->gc && !o->hybrid;
-        for (size_t i = 0; all && i < n; i++)
+        int all = o->gc && !o->hybrid && !o->hot.per_lane;
+        for (size_t i = 0; all && !dense && i < n; i++)
             all = b->index[i] < o->nlanes && o->active[b->index[i]];
         if (all) {
-            gcp_obs_stream_quiet(o, b, t, n);
+            gcp_obs_stream_quiet(o, b, t, n, dense);
+            /* the ring holds the last live positions (loss) */
+            o->hot.pos = 1;
+            return;
         } else {
+            /* |B|, p^2 and the J integrand of every lane in one vectorised
+             * pass (the same expressions as jdot's: bit-identical), the
+             * rest per lane */
+            const double m = o->m;
+            const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
+            const double *restrict ppar = b->ppar, *restrict mu = b->mu;
+            double *restrict Gb = o->Gb, *restrict Gp2 = o->Gp2, *restrict Gjd = o->Gjd;
+            GCP_OBS_IVDEP
+            for (size_t i = 0; i < n; i++) {
+                Gb[i] = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
+                Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
+                Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
+            }
+            const int hot = o->gc && !o->hybrid, c = (o->hot.cur + 1) % 3;
             for (size_t i = 0; i < n; i++) {
                 const size_t li = b->index[i];
                 if (li >= o->nlanes || !o->active[li]) continue;
                 const struct gsample s = {.t = t, .X = {b->x[i], b->y[i], b->z[i]},
                                           .ppar = ppar[i], .mu = mu[i], .B = Gb[i], .p2 = Gp2[i]};
                 struct lane *L = &o->lane[li];
-                if (o->gc && !o->hybrid) gcp_obs_hot_to_lane(o, L, li);
+                if (hot) gcp_obs_hot_to_lane(o, L, li);
                 gcp_obs_stream_sample_jd(o, L, o->id0 + (int64_t)li, &s, Gjd[i]);
-                if (o->gc && !o->hybrid) gcp_obs_lane_to_hot(o, L, li);
+                if (hot) gcp_obs_lane_to_hot(o, L, li, c);
             }
+            if (hot) o->hot.cur = c;
         }
     }
+    o->hot.pos = 0;
     /* the last live position (loss interpolation): densely, as a copy, while
      * the lanes' indices are still 0 .. n-1 and all begun (it cost as much
      * as half a fused boris step per lane as a per-lane loop) */
-    int dense = n <= o->nlanes;
-    for (size_t i = 0; dense && i < n; i++) dense = b->index[i] == i && o->active[i];
     if (dense) {
         memcpy(o->xprev[0], b->x, n * sizeof(double));
         memcpy(o->xprev[1], b->y, n * sizeof(double));
@@ -569,6 +653,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
     o->id0 = id0;
     o->t0 = t0;
     o->ev_begin = out->n;
+    o->hot.pos = 0;
     o->q = b->q;
     o->m = b->m;
     for (size_t i = 0; i < b->n; i++) {
@@ -580,7 +665,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         o->active[li] = 1;
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
-        gcp_obs_lane_to_hot(o, L, li);
+        gcp_obs_lane_to_hot(o, L, li, o->hot.cur);
         o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
         o->tprev[li] = t0;
     }

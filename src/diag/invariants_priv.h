@@ -18,6 +18,10 @@ struct gsample {
     double p2;    /* [kg^2 m^2/s^2] p^2 */
 };
 
+/* The values of a stream sample in the guiding-centre ring (struct
+ * gcp_observer.hot.r): a gsample's 8 in the order of its fields, and jd. */
+#define GCP_OBS_RING_NV 9
+
 /* A point of a drift contour. */
 struct cpoint {
     double t, phi, R, z; /* phi unwrapped along the contour */
@@ -100,12 +104,16 @@ struct gcp_observer {
      * which nothing happens to a lane but the trapezoid sums and the
      * tracking of the |B| minimum -- no mirror point, no sample after a
      * minimum, no cadence time, the azimuth within pi/4 -- is one
-     * vectorised pass (invariants.c stream_quiet).  The lane's struct lane
-     * holds the same values only around its other steps (hot_to_lane before,
-     * lane_to_hot after). */
+     * vectorised pass (invariants_quiet.c).  The lane's struct lane holds
+     * the same values only around its other steps (hot_to_lane before,
+     * lane_to_hot after).  The samples are a ring of three slots, the same
+     * slot for every lane at a step: r[cur] is the latest (L->s1), r[cur+2
+     * mod 3] the one before it (L->e0 where next is set: the sample before
+     * the minimum s1), and a step writes its own into r[cur+1 mod 3] for
+     * every lane -- no copy of s1 into a "previous" array at each step. */
     struct {
-        double *s1[8], *s0[8]; /* L->s1 and the sample before it, as gsample_field */
-        double *jd1, *J, *mub; /* L->jd1, J_acc, mub */
+        double *r[3][GCP_OBS_RING_NV]; /* t, X[3], ppar, mu, B, p2 and the J integrand jd */
+        double *J, *mub; /* J_acc, mub */
         double *Bmin;   /* eq_Bmin, or -inf where no equator is wanted */
         double *tnext;  /* the first cadence time that asks for work (inf: none) */
         double *cx, *cy; /* the stream contour's cprev, sprev */
@@ -114,6 +122,17 @@ struct gcp_observer {
         int64_t *hprev; /* eq_has_prev */
         int64_t *az;    /* the stream contour's azimuth is watched */
         int64_t *slow;  /* scratch: lane position i needs stream_sample */
+        int cur;        /* the ring slot of the latest sample */
+        /* the last observe_live went through the quiet pass: the ring's
+         * latest slot holds every lane's last live position and time
+         * (loss interpolation), and xprev, tprev were not written */
+        int pos;
+        /* tests (test_invariants_quiet.c): per_lane sends every step of
+         * every lane through gcp_obs_stream_sample_jd, the reference the
+         * quiet pass must equal bit for bit; passes counts the steps that
+         * went through the quiet pass */
+        int per_lane;
+        int64_t passes;
     } hot;
     struct gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
@@ -159,12 +178,15 @@ void gcp_obs_stream_sample(struct gcp_observer *o, struct lane *L, int64_t id,
 void gcp_obs_stream_sample_jd(struct gcp_observer *o, struct lane *L, int64_t id,
                               const struct gsample *s, double jd);
 /* Guiding-centre pushers (invariants_quiet.c): the step at t of the n live
- * lanes of b, all begun, |B|, p^2 and the J integrand in o->Gb, Gp2, Gjd;
- * and the copies between o->hot and a lane's struct lane around any other
- * call of gcp_obs_stream_sample_jd. */
-void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n);
+ * lanes of b, all begun (dense: lane i is b->index[i] = i), B at them in
+ * o->Bx, By, Bz; and the copies between o->hot and a lane's struct lane
+ * around any other call of gcp_obs_stream_sample_jd (hot_to_lane: s1 from
+ * slot o->hot.cur; lane_to_hot: L->s1 into slot `slot`, which becomes the
+ * latest once the step is done). */
+void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
+                          int dense);
 void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li);
-void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li);
+void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li, int slot);
 /* Full orbit: the live lanes of b at t into their gyro-averages, B at the
  * particles in o->Bx, By, Bz (invariants_fo.c). */
 void gcp_obs_fo_block(struct gcp_observer *o, const struct gcp_block *b, double t);

@@ -12,38 +12,54 @@
  * 2048 protons of 1 MeV in the dipole, old and new binaries interleaved on a
  * shared core, with the events storage of gcp_events_push): the observer's
  * cost over the bare push fell from ~1.0x to 0.6-0.8x for gc-rk4 and from
- * ~0.2x to 0.03-0.1x for gc-gl4. */
+ * ~0.2x to 0.03-0.1x for gc-gl4.
+ *
+ * With the fused gc-rk4 step (8.7 ns a lane-step) that observer cost ~1.9x
+ * the push again; the ring, |B|, p^2 and jd in the pass, the sample after a
+ * minimum in the pass and the events grown in place brought it to ~1.25x
+ * (best of 9, interleaved: 0.477 -> 0.383 s over a 0.17 s push).  What is
+ * left, by perf (share of the observer's time): the per-event work ~60%
+ * (mirror points, equator points: three atan2 + hypot + A(X) each for the
+ * drift contour, ~25%; storing the 83 MB of 136-byte event rows, mostly
+ * the kernel zeroing fresh pages, ~14%), this pass ~17% (bound by its two
+ * square roots and two divisions a lane-step, ~2.5 ns), B at the lanes
+ * ~4%.  The fused tile taking one step per call, with the last-position
+ * copy, ~0.03 s (a run with only `events = loss`). */
 #include <math.h>
 #include <stdint.h>
 
 #include "gcpush/invariants.h"
+#include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
 
-/* A gsample as 8 doubles in the order of its fields (t, X, ppar, mu, B, p2). */
-static void gs_put(double *const a[8], size_t li, const struct gsample *g)
+/* Slot k of the ring: a gsample's 8 values and jd. */
+static void gs_put(double *const a[GCP_OBS_RING_NV], size_t li, const struct gsample *g, double jd)
 {
-    const double v[8] = {g->t, g->X[0], g->X[1], g->X[2], g->ppar, g->mu, g->B, g->p2};
-    for (int k = 0; k < 8; k++) a[k][li] = v[k];
+    const double v[GCP_OBS_RING_NV] = {g->t, g->X[0], g->X[1], g->X[2], g->ppar,
+                                       g->mu, g->B, g->p2, jd};
+    for (int k = 0; k < GCP_OBS_RING_NV; k++) a[k][li] = v[k];
 }
 
-static struct gsample gs_get(double *const a[8], size_t li)
+static struct gsample gs_get(double *const a[GCP_OBS_RING_NV], size_t li)
 {
     return (struct gsample){.t = a[0][li], .X = {a[1][li], a[2][li], a[3][li]},
                             .ppar = a[4][li], .mu = a[5][li], .B = a[6][li], .p2 = a[7][li]};
 }
 
-/* The hot arrays of lane li into its struct lane (before gcp_obs_stream_sample_jd).
- * A minimum the quiet pass found (next) is s1, with e0 the sample before it
- * (stream_sample's new-minimum branch, with first_of_half = 0). */
+/* The hot arrays of lane li into its struct lane (before gcp_obs_stream_sample_jd):
+ * s1 is the ring's latest slot.  A minimum the quiet pass found (next) is
+ * s1, with e0 the sample before it, the slot before (stream_sample's
+ * new-minimum branch, with first_of_half = 0). */
 void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li)
 {
     if (!o->hot.have[li]) return; /* the quiet pass has not run: the lane is its own record */
-    L->s1 = gs_get(o->hot.s1, li);
-    L->jd1 = o->hot.jd1[li], L->J_acc = o->hot.J[li], L->mub = o->hot.mub[li];
+    const int c = o->hot.cur;
+    L->s1 = gs_get(o->hot.r[c], li);
+    L->jd1 = o->hot.r[c][8][li], L->J_acc = o->hot.J[li], L->mub = o->hot.mub[li];
     if (o->hot.next[li]) {
         L->eq_Bmin = o->hot.Bmin[li];
-        L->e0 = gs_get(o->hot.s0, li);
+        L->e0 = gs_get(o->hot.r[(c + 2) % 3], li);
         L->e1 = L->s1;
         L->eq_has_prev = (int)o->hot.hprev[li];
         L->eq_need_next = 1;
@@ -51,15 +67,17 @@ void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li
     }
 }
 
-/* Lane li's struct lane into its hot arrays (after gcp_obs_stream_sample_jd), with
- * what decides whether its next step is quiet: the cadence grid times
+/* Lane li's struct lane into its hot arrays (after gcp_obs_stream_sample_jd):
+ * L->s1 into ring slot `slot` (the latest once the step is done), e0 where
+ * a minimum waits for its next sample into the slot before it, and what
+ * decides whether its next step is quiet: the cadence grid times
  * t0 + k T of the samples rows and the stream contour (work when
  * tk <= t; invariants_samples.c). */
-void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li)
+void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li, int slot)
 {
-    gs_put(o->hot.s1, li, &L->s1);
-    gs_put(o->hot.s0, li, L->eq_need_next ? &L->e0 : &L->s1);
-    o->hot.jd1[li] = L->jd1, o->hot.J[li] = L->J_acc, o->hot.mub[li] = L->mub;
+    gs_put(o->hot.r[slot], li, &L->s1, L->jd1);
+    if (L->eq_need_next) gs_put(o->hot.r[(slot + 2) % 3], li, &L->e0, 0.0);
+    o->hot.J[li] = L->J_acc, o->hot.mub[li] = L->mub;
     o->hot.Bmin[li] = o->want_eq ? L->eq_Bmin : -INFINITY;
     o->hot.have[li] = L->have_s1;
     o->hot.next[li] = o->want_eq && L->eq_need_next;
@@ -76,81 +94,105 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
     o->hot.cx[li] = L->cst.cprev, o->hot.cy[li] = L->cst.sprev;
 }
 
-/* The step at t of the n live guiding-centre lanes of b (|B|, p^2 and the
- * J integrand in Gb, Gp2, Gjd).  A lane is quiet when stream_sample would
- * only add to its trapezoid sums and, at a new |B| minimum, remember it:
- * no mirror point (same sign of p_par), not the sample after a minimum,
- * no cadence time due, the azimuth within pi/4 of the contour's last point
- * (azimuth_moved's first test).  Those steps are one vectorised pass with
- * stream_sample's expressions (bit-identical); the others go through
- * gcp_obs_stream_sample_jd. */
+/* The step at t of the n live guiding-centre lanes of b (B at them in
+ * o->Bx, By, Bz).  A lane is quiet when stream_sample would only add to its
+ * trapezoid sums and, at a new |B| minimum, remember it: no mirror point
+ * (same sign of p_par), not the sample after a minimum, no cadence time
+ * due, the azimuth within pi/4 of the contour's last point (azimuth_moved's
+ * first test).  Those steps are one vectorised pass with stream_sample's
+ * expressions, and |B|, p^2 and the J integrand with observe_live's
+ * (bit-identical).  The sample after a minimum (twice a bounce) takes the
+ * same sums here and only its e0, e1, e2 per lane (slow = 2); the others
+ * (mirror points, cadence times) go through gcp_obs_stream_sample_jd.  The
+ * pass writes every lane's sample into the ring's next slot c, quiet or
+ * not (a lane that is not gets the same values from lane_to_hot), and
+ * leaves the slot before the latest (e0 of a lane whose minimum waits)
+ * alone; per lane ~20 loads and ~15 stores, where the pass with a copy of
+ * s1 into a previous-sample array and |B|, p^2, jd through arrays of their
+ * own had ~40 and ~30. */
 static inline __attribute__((always_inline)) void
 stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
                   const size_t *restrict idx)
 {
     const double *restrict x = b->x, *restrict y = b->y, *restrict z = b->z;
     const double *restrict pp = b->ppar, *restrict mu = b->mu;
-    const double *restrict Gb = o->Gb, *restrict Gp2 = o->Gp2, *restrict Gjd = o->Gjd;
-    double *restrict a0 = o->hot.s0[0], *restrict a1 = o->hot.s0[1], *restrict a2 = o->hot.s0[2];
-    double *restrict a3 = o->hot.s0[3], *restrict a4 = o->hot.s0[4], *restrict a5 = o->hot.s0[5];
-    double *restrict a6 = o->hot.s0[6], *restrict a7 = o->hot.s0[7];
-    double *restrict t1 = o->hot.s1[0], *restrict X0 = o->hot.s1[1], *restrict X1 = o->hot.s1[2];
-    double *restrict X2 = o->hot.s1[3], *restrict pp1 = o->hot.s1[4], *restrict mu1 = o->hot.s1[5];
-    double *restrict B1 = o->hot.s1[6], *restrict p21 = o->hot.s1[7];
-    double *restrict jd1 = o->hot.jd1, *restrict J = o->hot.J, *restrict mub = o->hot.mub;
-    double *restrict Bmin = o->hot.Bmin;
+    const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
+    const double m = o->m;
+    const int p = o->hot.cur, c = (p + 1) % 3;
+    const double *restrict t1 = o->hot.r[p][0], *restrict pp1 = o->hot.r[p][4];
+    const double *restrict mu1 = o->hot.r[p][5], *restrict jd1 = o->hot.r[p][8];
+    double *restrict tc = o->hot.r[c][0], *restrict X0 = o->hot.r[c][1], *restrict X1 = o->hot.r[c][2];
+    double *restrict X2 = o->hot.r[c][3], *restrict ppc = o->hot.r[c][4], *restrict muc = o->hot.r[c][5];
+    double *restrict Bc = o->hot.r[c][6], *restrict p2c = o->hot.r[c][7], *restrict jdc = o->hot.r[c][8];
+    double *restrict J = o->hot.J, *restrict mub = o->hot.mub, *restrict Bmin = o->hot.Bmin;
     const double *restrict tnext = o->hot.tnext, *restrict cx = o->hot.cx, *restrict cy = o->hot.cy;
     const int64_t *restrict have = o->hot.have, *restrict az = o->hot.az;
     int64_t *restrict next = o->hot.next, *restrict hprev = o->hot.hprev, *restrict slow = o->hot.slow;
     GCP_OBS_IVDEP
     for (size_t i = 0; i < n; i++) {
         const size_t li = idx ? idx[i] : i;
+        /* observe_live's |B|, p^2, jd (jdot's expressions) */
+        const double Gb = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
+        const double Gp2 = pp[i] * pp[i] + 2.0 * m * mu[i] * Gb;
+        const double Gjd = pp[i] * pp[i] / sqrt(m * m + Gp2 / (GCP_C_LIGHT * GCP_C_LIGHT));
         const double dot = x[i] * cx[li] + y[i] * cy[li];
         const double crs = y[i] * cx[li] - x[i] * cy[li];
         const double margin = 1e-9 * (fabs(x[i]) + fabs(y[i]));
         const int64_t still = !az[li] | (dot - fabs(crs) > margin);
-        const int64_t newmin = Gb[i] < Bmin[li];
-        const int64_t quiet = have[li] & ((pp1[li] > 0) == (pp[i] > 0)) & (tnext[li] > t) &
-                              still & (newmin | !next[li]);
-        slow[i] = !quiet;
+        const int64_t newmin = Gb < Bmin[li];
+        /* calm: the trapezoid sums and the minimum are all that happens,
+         * but for the sample after a minimum (after), which stream_sample
+         * would only take as e2 */
+        const int64_t calm = have[li] & ((pp1[li] > 0) == (pp[i] > 0)) & (tnext[li] > t) & still;
+        const int64_t after = calm & next[li] & !newmin;
+        const int64_t quiet = calm & !after;
+        slow[i] = (int64_t)!calm | (after << 1);
         const double h = t - t1[li];
-        const double Jn = J[li] + 0.5 * (jd1[li] + Gjd[i]) * h;
+        const double Jn = J[li] + 0.5 * (jd1[li] + Gjd) * h;
         const double mn = mub[li] + 0.5 * (mu1[li] + mu[i]) * h;
         const int64_t nm = quiet & newmin;
-        Bmin[li] = nm ? Gb[i] : Bmin[li];
-        next[li] = nm | next[li];
+        Bmin[li] = nm ? Gb : Bmin[li];
+        next[li] = (nm | next[li]) & !after;
         hprev[li] = nm | hprev[li];
-#define QUIET_SET(A, V) A[li] = quiet ? (V) : A[li]
-        QUIET_SET(a0, t1[li]), QUIET_SET(a1, X0[li]), QUIET_SET(a2, X1[li]);
-        QUIET_SET(a3, X2[li]), QUIET_SET(a4, pp1[li]), QUIET_SET(a5, mu1[li]);
-        QUIET_SET(a6, B1[li]), QUIET_SET(a7, p21[li]);
-        QUIET_SET(J, Jn), QUIET_SET(mub, mn), QUIET_SET(t1, t);
-        QUIET_SET(X0, x[i]), QUIET_SET(X1, y[i]), QUIET_SET(X2, z[i]);
-        QUIET_SET(pp1, pp[i]), QUIET_SET(mu1, mu[i]), QUIET_SET(B1, Gb[i]);
-        QUIET_SET(p21, Gp2[i]), QUIET_SET(jd1, Gjd[i]);
-#undef QUIET_SET
+        J[li] = calm ? Jn : J[li];
+        mub[li] = calm ? mn : mub[li];
+        tc[li] = t, X0[li] = x[i], X1[li] = y[i], X2[li] = z[i];
+        ppc[li] = pp[i], muc[li] = mu[i], Bc[li] = Gb, p2c[li] = Gp2, jdc[li] = Gjd;
     }
 }
 
 /* stream_quiet_pass, densely where the lanes' indices are still 0 .. n-1
  * (a block before its first retirement), and then the lanes that were not
- * quiet through stream_sample. */
-void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n)
+ * quiet through stream_sample; the new slot becomes the latest. */
+void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
+                          int dense)
 {
     const size_t *idx = b->index;
-    int dense = 1;
-    for (size_t i = 0; dense && i < n; i++) dense = idx[i] == i;
     if (dense) stream_quiet_pass(o, b, t, n, NULL);
     else stream_quiet_pass(o, b, t, n, idx);
-    const double *x = b->x, *y = b->y, *z = b->z, *pp = b->ppar, *mu = b->mu;
+    o->hot.passes++;
+    const int p = o->hot.cur, c = (p + 1) % 3;
     for (size_t i = 0; i < n; i++) {
         if (!o->hot.slow[i]) continue;
         const size_t li = idx[i];
         struct lane *L = &o->lane[li];
-        const struct gsample s = {.t = t, .X = {x[i], y[i], z[i]}, .ppar = pp[i], .mu = mu[i],
-                                  .B = o->Gb[i], .p2 = o->Gp2[i]};
+        if (o->hot.slow[i] == 2) {
+            /* the sample after the minimum s1 (the pass took its sums and
+             * cleared next): stream_sample's e0, e1, e2 and flags from the
+             * ring, the sample before s1, s1 and this one */
+            L->e0 = gs_get(o->hot.r[(p + 2) % 3], li);
+            L->e1 = gs_get(o->hot.r[p], li);
+            L->e2 = gs_get(o->hot.r[c], li);
+            L->eq_Bmin = o->hot.Bmin[li];
+            L->eq_has_prev = L->eq_valid = (int)o->hot.hprev[li];
+            L->eq_need_next = 0;
+            continue;
+        }
+        /* the pass's values of this step, in slot c */
+        const struct gsample s = gs_get(o->hot.r[c], li);
         gcp_obs_hot_to_lane(o, L, li);
-        gcp_obs_stream_sample_jd(o, L, o->id0 + (int64_t)li, &s, o->Gjd[i]);
-        gcp_obs_lane_to_hot(o, L, li);
+        gcp_obs_stream_sample_jd(o, L, o->id0 + (int64_t)li, &s, o->hot.r[c][8][li]);
+        gcp_obs_lane_to_hot(o, L, li, c);
     }
+    o->hot.cur = c;
 }
