@@ -135,7 +135,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->Bz = calloc(n, sizeof(double));
     o->fst = calloc(n, sizeof(int32_t));
     /* the full-orbit scratch and struct gyro, in one allocation */
-    struct gyro *g = &o->g;
+    struct gcp_fo_gyro *g = &o->g;
     double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz, &o->Vpp, &o->Vmu, &o->Vp2,
                     &g->rho[0], &g->rho[1], &g->rho[2], &g->e1[0], &g->e1[1], &g->e1[2],
                     &g->e2[0], &g->e2[1], &g->e2[2], &g->acc[0], &g->acc[1], &g->acc[2],
