@@ -169,6 +169,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->p = p;
     o->opts = *opts;
     o->nlanes = n;
+    o->g.nlanes = n;
     o->gc = p->kind == GCP_GUIDING_CENTRE;
     o->hybrid = p->kind == GCP_HYBRID;
     o->want_bounce = (opts->invariants & (GCP_INV_J | GCP_INV_K)) || (opts->events & GCP_EVT_BOUNCE);
@@ -192,6 +193,7 @@ void gcp_observer_free(struct gcp_observer *o)
     free(o->fst);
     free(o->gmem);
     free(o->gflags);
+    free(o->g.rec);
     free(o);
 }
 
@@ -492,7 +494,7 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
  * hybrid: enum gcp_hybrid_mode; a lane whose mode changed starts a new
  * gyro-average, and its stream goes on). */
 static void observe_live(struct gcp_observer *o, const struct gcp_block *b, double t, int gc,
-                         int32_t mode)
+                         int32_t mode, int fo_done)
 {
     const size_t n = b->n_active;
     /* method = hybrid: a lane whose mode changed starts a new gyration (the
@@ -503,12 +505,12 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         o->lane[li].mode = mode;
         o->g.init[li] = 0;
     }
-    if (o->stream && n) {
+    if (o->stream && n && !fo_done) {
         memset(o->fst, 0, n * sizeof(int32_t));
         o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
                                NULL, o->fst);
     }
-    if (o->stream && !gc && n) gcp_obs_fo_block(o, b, t);
+    if (o->stream && !gc && n && !fo_done) gcp_obs_fo_block(o, b, t);
     if (o->stream && gc && n) {
         /* |B|, p^2 and the J integrand of every lane in one vectorised pass
          * (the same expressions as jdot's: bit-identical), the rest per lane */
@@ -585,7 +587,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         o->tprev[li] = t0;
     }
     /* method = hybrid: the mode of each lane comes with gcp_observer_sample_mode */
-    if (!o->hybrid) observe_live(o, b, t0, o->gc, 0);
+    if (!o->hybrid) observe_live(o, b, t0, o->gc, 0, 0);
 }
 
 void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
@@ -598,13 +600,26 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
         if (o->active[li] && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
-    if (!o->hybrid) observe_live(o, b, t, o->gc, 0);
+    /* the steps a fused full-orbit step did the gyro-average work of
+     * (gcp_observer_fo_gyro): their completed gyrations into the streams */
+    const int fo_done = o->g.steps > 0;
+    for (int64_t k = 0; fo_done && k < o->g.nrec; k++) {
+        const struct gcp_fo_gyro_rec *r = &o->g.rec[k];
+        gcp_obs_fo_record(o, &o->lane[r->lane], o->id0 + r->lane, r);
+    }
+    o->g.steps = o->g.nrec = 0;
+    if (!o->hybrid) observe_live(o, b, t, o->gc, 0, fo_done);
+}
+
+struct gcp_fo_gyro *gcp_observer_fo_gyro(struct gcp_observer *o)
+{
+    return o && o->stream && !o->gc && !o->hybrid ? &o->g : NULL;
 }
 
 void gcp_observer_sample_mode(const struct gcp_block *b, double t, int mode, void *ctx)
 {
     struct gcp_observer *o = ctx;
-    observe_live(o, b, t, mode == GCP_MODE_GC, mode);
+    observe_live(o, b, t, mode == GCP_MODE_GC, mode, 0);
 }
 
 void gcp_observer_set_sample_dt(struct gcp_observer *o, double sample_dt)

@@ -29,6 +29,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+/* Before the fused loop over a tile's lanes, whose arrays do not overlap:
+ * GCC cannot use restrict on pointers loaded from a struct, tests the
+ * arrays for overlap at run time, and gives up past 10 of them. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define GCP_FO_IVDEP_ _Pragma("GCC ivdep")
+#else
+#define GCP_FO_IVDEP_
+#endif
+
 /* One completed gyration: its mid time and the averages over it. */
 struct gcp_fo_gyro_rec {
     int64_t lane;  /* the lane's index (the block is dense: b->index[i] = i) */
