@@ -267,12 +267,18 @@ struct gcp_fo_fused {
                 sv[9][i] = B1x, sv[10][i] = B1y, sv[11][i] = B1z;                               \
                 const double ca = r0[i] * e20[i] + r1[i] * e21[i] + r2[i] * e22[i];             \
                 const double cc = rx * e20[i] + ry * e21[i] + rz * e22[i];                      \
-                const int64_t lf = left[i] | (rx * e10[i] + ry * e11[i] + rz * e12[i] < 0);     \
+                const double re1 = rx * e10[i] + ry * e11[i] + rz * e12[i];                     \
+                const double pe1 = r0[i] * e10[i] + r1[i] * e11[i] + r2[i] * e12[i];            \
+                const int64_t lf = left[i] | (re1 < 0);                                         \
                 const int64_t cross = ((ca < 0) & (cc >= 0)) | ((ca > 0) & (cc <= 0));          \
-                const double th = ca / (ca - cc);                                               \
-                const double wx = r0[i] + th * (rx - r0[i]), wy = r1[i] + th * (ry - r1[i]),    \
-                             wz = r2[i] + th * (rz - r2[i]);                                    \
-                const int64_t wrap = wx * e10[i] + wy * e11[i] + wz * e12[i] > 0;               \
+                /* gcp_fo_gyro_lane's wrap test (rho at the crossing, th = ca/(ca - cc), on     \
+                 * e1's side) times (ca - cc), which has ca's sign where they cross: no        \
+                 * division; with a margin far above the rounding of either form, so that it \
+                 * flags every lane that test would wrap (and a few more, which that test     \
+                 * then steps as this pass would: the same numbers) */                        \
+                const double D = ca * re1 - cc * pe1;                                           \
+                const double Dm = 1e-9 * (fabs(ca * re1) + fabs(cc * pe1));                     \
+                const int64_t wrap = (ca > 0 ? D : -D) > -Dm;                                   \
                 const int64_t sf = lf & cross & wrap;                                           \
                 sp[i] = sf;                                                                     \
                 nsp += sf;                                                                      \
@@ -289,8 +295,9 @@ struct gcp_fo_fused {
                 left[i] = sf ? left[i] : lf;                                                    \
                 tpv[i] = sf ? tpv[i] : tt;                                                      \
             }                                                                                   \
-            for (size_t i = 0; nsp && i < nt; i++) {                                            \
+            for (size_t i = 0; nsp > 0 && i < nt; i++) {                                        \
                 if (!sp[i]) continue;                                                           \
+                nsp--;                                                                          \
                 const double v[6] = {sv[0][i], sv[1][i], sv[2][i], sv[3][i], sv[4][i], sv[5][i]}; \
                 const double rho[3] = {sv[6][i], sv[7][i], sv[8][i]};                           \
                 const double B[3] = {sv[9][i], sv[10][i], sv[11][i]};                           \
