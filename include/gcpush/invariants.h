@@ -52,7 +52,11 @@
  * asked, per step one block field evaluation (GC) or two (FO) and
  * vectorised passes over the lanes' state; a GC lane's step that closes
  * nothing (no mirror point, equator or cadence time) stays in the
- * vectorised pass (tests/bench/observer.sh measures it).
+ * vectorised pass (tests/bench/observer.sh measures it).  A full orbit
+ * pushed by a fused step (closed-form B, gcp_block_advance_fo_gyro, as the
+ * run engine does) has the per-step part done in the push's tile loop, up
+ * to 128 steps a call, and only the completed gyrations come here (the
+ * same events bit for bit).
  */
 #ifndef GCPUSH_INVARIANTS_H
 #define GCPUSH_INVARIANTS_H
