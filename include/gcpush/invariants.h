@@ -52,7 +52,11 @@
  * asked, per step one block field evaluation (GC) or two (FO) and
  * vectorised passes over the lanes' state; a GC lane's step that closes
  * nothing (no mirror point, equator or cadence time) stays in the
- * vectorised pass (tests/bench/observer.sh measures it).
+ * vectorised pass (tests/bench/observer.sh measures it).  A full orbit
+ * pushed by a fused step (closed-form B, gcp_block_advance_fo_gyro, as the
+ * run engine does) has the per-step part done in the push's tile loop, up
+ * to 128 steps a call, and only the completed gyrations come here (the
+ * same events bit for bit).
  */
 #ifndef GCPUSH_INVARIANTS_H
 #define GCPUSH_INVARIANTS_H
@@ -218,6 +222,13 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
  * method = hybrid it only notes the lanes that stopped: the samples come
  * through gcp_observer_sample_mode. */
 void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx);
+/* Full orbit (not hybrid): the observer's gyro-average state for a
+ * gcp_sampler's .gyro (every = 1, ctx = the observer, fn =
+ * gcp_observer_sample, or a sampler that calls it): a fused full-orbit
+ * step then does the per-step work of several steps in its tile loop and
+ * the sampler is called after them (the same events, bit for bit).  NULL
+ * where the observer has no use for it. */
+struct gcp_fo_gyro *gcp_observer_fo_gyro(struct gcp_observer *o);
 /* method = hybrid (an observer created with gcp_pusher_hybrid): the live
  * lanes of b after a step of the given mode (enum gcp_hybrid_mode): GC
  * lanes hold X, p_par, mu and go into the stream as they are, FO lanes hold

@@ -163,6 +163,15 @@ size_t gcp_block_start(struct gcp_block *b, const struct gcp_field *f, double t0
 size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
                             const struct gcp_pusher_type *p, double t0, double dt,
                             int64_t nsteps, const struct gcp_sampler *sampler);
+/* p->advance(b, f, p, o, s), where s (every = 1) is the invariant
+ * observer's sampler or calls it, and gyro its gcp_observer_fo_gyro:
+ * a fused full-orbit step then does the observer's per-step gyro-average
+ * work of several steps in its tile loop and calls s after them (the
+ * same events, bit for bit; issue 12).  gyro NULL: p->advance. */
+struct gcp_fo_gyro; /* private to the library (src/pushers/fo_gyro_priv.h) */
+size_t gcp_block_advance_fo_gyro(struct gcp_block *b, const struct gcp_field *f,
+                                 const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                                 const struct gcp_sampler *s, struct gcp_fo_gyro *gyro);
 /* The same as a gcp_advance_fn (the .advance of every full-orbit pusher). */
 size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,
                                  const struct gcp_pusher_type *p, const struct gcp_push_opts *o,

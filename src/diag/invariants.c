@@ -197,7 +197,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->Bz = calloc(n, sizeof(double));
     o->fst = calloc(n, sizeof(int32_t));
     /* the full-orbit scratch and struct gyro, in one allocation */
-    struct gyro *g = &o->g;
+    struct gcp_fo_gyro *g = &o->g;
     double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz, &o->Vpp, &o->Vmu, &o->Vp2,
                     &g->rho[0], &g->rho[1], &g->rho[2], &g->e1[0], &g->e1[1], &g->e1[2],
                     &g->e2[0], &g->e2[1], &g->e2[2], &g->acc[0], &g->acc[1], &g->acc[2],
@@ -229,6 +229,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->p = p;
     o->opts = *opts;
     o->nlanes = n;
+    o->g.nlanes = n;
     o->gc = p->kind == GCP_GUIDING_CENTRE;
     o->hybrid = p->kind == GCP_HYBRID;
     o->want_bounce = (opts->invariants & (GCP_INV_J | GCP_INV_K)) || (opts->events & GCP_EVT_BOUNCE);
@@ -252,6 +253,7 @@ void gcp_observer_free(struct gcp_observer *o)
     free(o->fst);
     free(o->gmem);
     free(o->gflags);
+    free(o->g.rec);
     free(o);
 }
 
@@ -560,7 +562,7 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
  * hybrid: enum gcp_hybrid_mode; a lane whose mode changed starts a new
  * gyro-average, and its stream goes on). */
 static void observe_live(struct gcp_observer *o, const struct gcp_block *b, double t, int gc,
-                         int32_t mode)
+                         int32_t mode, int fo_done)
 {
     const size_t n = b->n_active;
     /* method = hybrid: a lane whose mode changed starts a new gyration (the
@@ -571,12 +573,12 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         o->lane[li].mode = mode;
         o->g.init[li] = 0;
     }
-    if (o->stream && n) {
+    if (o->stream && n && !fo_done) {
         memset(o->fst, 0, n * sizeof(int32_t));
         o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
                                NULL, o->fst);
     }
-    if (o->stream && !gc && n) gcp_obs_fo_block(o, b, t);
+    if (o->stream && !gc && n && !fo_done) gcp_obs_fo_block(o, b, t);
     /* dense: the lanes' indices are still 0 .. n-1 and all begun (a block
      * before its first retirement), tested as one vectorised reduction */
     int dense = n <= o->nlanes;
@@ -670,7 +672,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         o->tprev[li] = t0;
     }
     /* method = hybrid: the mode of each lane comes with gcp_observer_sample_mode */
-    if (!o->hybrid) observe_live(o, b, t0, o->gc, 0);
+    if (!o->hybrid) observe_live(o, b, t0, o->gc, 0, 0);
 }
 
 void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
@@ -683,13 +685,26 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
         if (o->active[li] && !L->loss_done && b->status[i] != GCP_ALIVE)
             loss(o, L, o->id0 + (int64_t)li, b, i);
     }
-    if (!o->hybrid) observe_live(o, b, t, o->gc, 0);
+    /* the steps a fused full-orbit step did the gyro-average work of
+     * (gcp_observer_fo_gyro): their completed gyrations into the streams */
+    const int fo_done = o->g.steps > 0;
+    for (int64_t k = 0; fo_done && k < o->g.nrec; k++) {
+        const struct gcp_fo_gyro_rec *r = &o->g.rec[k];
+        gcp_obs_fo_record(o, &o->lane[r->lane], o->id0 + r->lane, r);
+    }
+    o->g.steps = o->g.nrec = 0;
+    if (!o->hybrid) observe_live(o, b, t, o->gc, 0, fo_done);
+}
+
+struct gcp_fo_gyro *gcp_observer_fo_gyro(struct gcp_observer *o)
+{
+    return o && o->stream && !o->gc && !o->hybrid ? &o->g : NULL;
 }
 
 void gcp_observer_sample_mode(const struct gcp_block *b, double t, int mode, void *ctx)
 {
     struct gcp_observer *o = ctx;
-    observe_live(o, b, t, mode == GCP_MODE_GC, mode);
+    observe_live(o, b, t, mode == GCP_MODE_GC, mode, 0);
 }
 
 void gcp_observer_set_sample_dt(struct gcp_observer *o, double sample_dt)

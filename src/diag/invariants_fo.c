@@ -11,90 +11,42 @@
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
 
-static void unit(const double B[3], double b[3])
-{
-    const double Bm = sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2]);
-    b[0] = B[0] / Bm, b[1] = B[1] / Bm, b[2] = B[2] / Bm;
-}
-
 /* Full orbit: one step of lane li into its gyro-average; emits a stream
  * sample at each completed gyration.  v: X[3], p_par, mu, p^2 of the
  * first-order guiding centre of this step; rho = x - X; B: B(x) (b = B/|B|
- * is needed only where a gyration starts or ends).  A gyration ends where
- * the gyroradius vector crosses the half-plane spanned by b and e1 (e1: its
- * direction when the gyration began) again, after having been on the far
- * side: rho.e2 changes sign with rho.e1 > 0, e2 = b x e1; the crossing is
- * linear in the step. */
+ * is needed only where a gyration starts or ends).  The step of a begun
+ * gyration is gcp_fo_gyro_lane (pushers/fo_gyro_priv.h: the phase test and
+ * the trapezoid sums, shared with the fused full-orbit step). */
 static void fo_step_lane(struct gcp_observer *o, struct lane *L, size_t li, int64_t id, double t,
                          const double v[6], const double rho[3], const double B[3])
 {
-    struct gyro *G = &o->g;
-    double bx[3];
+    struct gcp_fo_gyro *G = &o->g;
     if (!G->init[li]) {
-        unit(B, bx);
         G->init[li] = 1;
         G->left[li] = 0;
         for (int k = 0; k < 3; k++) G->rho[k][li] = rho[k];
         for (int k = 0; k < 6; k++) G->prev[k][li] = v[k], G->acc[k][li] = 0.0;
         G->t0[li] = G->tprev[li] = t;
         const double r = sqrt(gcp_obs_dot3(rho, rho));
-        double e[3];
+        double e[3], e2[3];
         for (int k = 0; k < 3; k++) e[k] = G->e1[k][li] = r > 0 ? rho[k] / r : 0.0;
-        G->e2[0][li] = bx[1] * e[2] - bx[2] * e[1];
-        G->e2[1][li] = bx[2] * e[0] - bx[0] * e[2];
-        G->e2[2][li] = bx[0] * e[1] - bx[1] * e[0];
+        gcp_fo_gyro_e2(B, e, e2);
+        for (int k = 0; k < 3; k++) G->e2[k][li] = e2[k];
         return;
     }
-    const double rp[3] = {G->rho[0][li], G->rho[1][li], G->rho[2][li]};
-    const double e1[3] = {G->e1[0][li], G->e1[1][li], G->e1[2][li]};
-    const double e2[3] = {G->e2[0][li], G->e2[1][li], G->e2[2][li]};
-    double prev[6], acc[6];
-    for (int k = 0; k < 6; k++) prev[k] = G->prev[k][li], acc[k] = G->acc[k][li];
-    const double tprev = G->tprev[li];
-    const double dt = t - tprev;
-    const double a = gcp_obs_dot3(rp, e2), c = gcp_obs_dot3(rho, e2);
-    if (gcp_obs_dot3(rho, e1) < 0) G->left[li] = 1;
-    int wrap = 0;
-    double th = 0;
-    if (G->left[li] && ((a < 0 && c >= 0) || (a > 0 && c <= 0))) {
-        th = a / (a - c);
-        double rw[3];
-        for (int k = 0; k < 3; k++) rw[k] = rp[k] + th * (rho[k] - rp[k]);
-        wrap = gcp_obs_dot3(rw, e1) > 0;
-    }
-    if (wrap) {
-        const double tw = tprev + th * dt;
-        double vw[6];
-        for (int k = 0; k < 6; k++) {
-            vw[k] = prev[k] + th * (v[k] - prev[k]);
-            acc[k] += 0.5 * (prev[k] + vw[k]) * (tw - tprev);
-        }
-        const double T = tw - G->t0[li];
-        if (T > 0) {
-            struct gsample s = {.t = 0.5 * (G->t0[li] + tw)};
-            for (int k = 0; k < 3; k++) s.X[k] = acc[k] / T;
-            s.ppar = acc[3] / T;
-            s.mu = acc[4] / T;
-            s.p2 = acc[5] / T;
-            struct gcp_field_sample fs = {.need = GCP_NEED_B};
-            gcp_field_eval(o->f, s.t, s.X, &fs);
-            s.B = sqrt(gcp_obs_dot3(fs.B, fs.B));
-            gcp_obs_stream_sample(o, L, id, &s);
-        }
-        for (int k = 0; k < 6; k++) G->acc[k][li] = 0.5 * (vw[k] + v[k]) * (t - tw);
-        G->t0[li] = tw;
-        G->left[li] = 0;
-        /* e1, e2 follow the slowly turning field: e2 = b x e1 from this step */
-        unit(B, bx);
-        G->e2[0][li] = bx[1] * e1[2] - bx[2] * e1[1];
-        G->e2[1][li] = bx[2] * e1[0] - bx[0] * e1[2];
-        G->e2[2][li] = bx[0] * e1[1] - bx[1] * e1[0];
-    } else {
-        for (int k = 0; k < 6; k++) G->acc[k][li] = acc[k] + 0.5 * (prev[k] + v[k]) * dt;
-    }
-    for (int k = 0; k < 3; k++) G->rho[k][li] = rho[k];
-    for (int k = 0; k < 6; k++) G->prev[k][li] = v[k];
-    G->tprev[li] = t;
+    struct gcp_fo_gyro_rec r;
+    if (gcp_fo_gyro_lane(G, li, t, v, rho, B, &r)) gcp_obs_fo_record(o, L, id, &r);
+}
+
+void gcp_obs_fo_record(struct gcp_observer *o, struct lane *L, int64_t id,
+                       const struct gcp_fo_gyro_rec *r)
+{
+    struct gsample s = {.t = r->t, .X = {r->X[0], r->X[1], r->X[2]}, .ppar = r->ppar,
+                        .mu = r->mu, .p2 = r->p2};
+    struct gcp_field_sample fs = {.need = GCP_NEED_B};
+    gcp_field_eval(o->f, s.t, s.X, &fs);
+    s.B = sqrt(gcp_obs_dot3(fs.B, fs.B));
+    gcp_obs_stream_sample(o, L, id, &s);
 }
 
 /* The step of every live lane whose gyration neither starts nor ends in it
@@ -108,7 +60,7 @@ static inline __attribute__((always_inline)) void
 fo_pass(struct gcp_observer *o, const struct gcp_block *b, size_t n, double t,
         const size_t *restrict idx)
 {
-    struct gyro *G = &o->g;
+    struct gcp_fo_gyro *G = &o->g;
     int64_t *restrict init = G->init, *restrict left = G->left, *restrict sp = o->special;
     double *restrict r0 = G->rho[0], *restrict r1 = G->rho[1], *restrict r2 = G->rho[2];
     const double *restrict e10 = G->e1[0], *restrict e11 = G->e1[1], *restrict e12 = G->e1[2];

@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "gcpush/invariants.h"
+#include "pushers/fo_gyro_priv.h"
 
 /* One guiding-centre stream sample. */
 struct gsample {
@@ -40,7 +41,7 @@ struct contour {
 struct lane {
     int loss_done;
     int32_t mode;         /* method = hybrid: the mode of the last sample (enum gcp_hybrid_mode) */
-    /* full orbit: the gyration in progress is in struct gyro */
+    /* full orbit: the gyration in progress is in o->g (struct gcp_fo_gyro) */
     /* stream */
     int have_s1;
     struct gsample s1;
@@ -72,16 +73,10 @@ struct lane {
 };
 
 /* Full orbit: the gyration in progress of each lane (indexed by the lane's
- * original index, as lane[]), as a struct of arrays, so that the step of a
- * gyration that neither starts nor ends in it (all but ~1 step in 20)
- * is one vectorised pass over the block (invariants_fo.c). */
-struct gyro {
-    int64_t *init, *left; /* left: the gyroradius has been on the far side of e1 */
-    double *rho[3];       /* rho = x - X of the previous step */
-    double *e1[3], *e2[3];
-    double *acc[6], *prev[6]; /* trapezoid integrals and previous values of X[3], ppar, mu, p2 */
-    double *t0, *tprev;
-};
+ * original index, as lane[]) is a struct gcp_fo_gyro (pushers/fo_gyro_priv.h):
+ * a struct of arrays, so that the step of a gyration that neither starts
+ * nor ends in it (all but ~1 step in 20) is one vectorised pass over the
+ * block (invariants_fo.c), or is done inside the fused full-orbit step. */
 
 struct gcp_observer {
     const struct gcp_field *f;
@@ -134,7 +129,7 @@ struct gcp_observer {
         int per_lane;
         int64_t passes;
     } hot;
-    struct gyro g;
+    struct gcp_fo_gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
      * push, the last live position and time (loss interpolation) */
     int64_t *active;
@@ -190,6 +185,10 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
 /* Full orbit: the live lanes of b at t into their gyro-averages, B at the
  * particles in o->Bx, By, Bz (invariants_fo.c). */
 void gcp_obs_fo_block(struct gcp_observer *o, const struct gcp_block *b, double t);
+/* A completed gyration (r) into lane L's stream: |B| at its X, then
+ * gcp_obs_stream_sample (invariants_fo.c). */
+void gcp_obs_fo_record(struct gcp_observer *o, struct lane *L, int64_t id,
+                       const struct gcp_fo_gyro_rec *r);
 /* Contour quantities of a position (phi, R, psi = R A_phi, A_R, A_z). */
 void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
                         double *R, double *psi, double *AR, double *Az);

@@ -98,6 +98,10 @@ struct gcp_stepper {
      * i lane_size), or NULL where lane_size is 0. */
     int64_t (*steps)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
                      double t, double h, int64_t kmax, int32_t *stops, unsigned char *lanes);
+    /* [bool] `steps` bounds its own steps by a sampler of every step:
+     * several when it does the sampler's per-step work itself (the invariant
+     * observer's gyro-average: fo_gyro_priv.h), else one (fo_step.c). */
+    int gyro;
     /* Or the same for one lane with its state (used when step is NULL):
      * returns 0 or the lane's status, as gcp_gc_lane_ops.step. */
     int (*step_lane)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
@@ -180,7 +184,8 @@ gcp_evolve_inline(struct gcp_block *b, const struct gcp_field *f, const struct g
         int32_t stops = 1; /* 0: the stepper's `steps` found no lane to stop */
         if (st->steps) {
             int64_t kmax = o->nsteps - k;
-            if (every && every - k % every < kmax) kmax = every - k % every;
+            if (every && every - k % every < kmax && !(st->gyro && every == 1))
+                kmax = every - k % every;
             kd = st->steps(&ev, ctx, b, n, t, h, kmax, &stops, L);
             if (kd > 1) k += kd - 1, t = o->t0 + (double)k * h;
         }

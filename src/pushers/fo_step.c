@@ -93,7 +93,20 @@ struct fo_ctx {
     int64_t *done;                 /* [tiles] steps each tile took */
     int64_t left;                  /* steps of the push not yet taken */
     int hg_valid;                  /* [bool] b->hg holds the live lanes' drift factors */
+    /* the sampler's gyro-average work (gcp_sampler.gyro, every = 1): gy set
+     * when the sampler asks for it; then steps without gyro_tile are one a
+     * call (the sampler does each step's work), with it up to
+     * GCP_FO_GYRO_STEPS a call (fo_steps_gyro) */
+    struct gcp_fo_gyro *gy;
+    gcp_fo_gyro_tile_fn gyro_tile;
+    double *gsave;                 /* [27 b->n] x, u and the gyro state at the call's start */
 };
+
+/* Steps a call of the fused step with the observer's work (fo_steps_gyro)
+ * takes at most: its records (at most one a lane a step) are n of this
+ * each, and the sampler's per-call work (the block's last positions, the
+ * records into the stream) is spread over this many steps. */
+#define GCP_FO_GYRO_STEPS 128
 
 /* u does not change between a step's second half drift and the next
  * step's first, so (dt/2)/gamma is computed once per step (bit-identical to
@@ -148,6 +161,91 @@ static void fo_state_arrays(struct gcp_block *b, double *a[6])
  * leave their drift factors in b->hg for the next call to read instead of
  * recomputing (a square root and a division a lane); a push of one call
  * (one step per call, streaming) never touches b->hg. */
+/* The gyro state arrays of lanes [0, n) (fo_steps_gyro's save). */
+static void fo_gyro_arrays(struct gcp_fo_gyro *g, void *a[21])
+{
+    int k = 0;
+    a[k++] = g->left, a[k++] = g->t0, a[k++] = g->tprev;
+    for (int j = 0; j < 3; j++) a[k++] = g->rho[j], a[k++] = g->e2[j];
+    for (int j = 0; j < 6; j++) a[k++] = g->acc[j], a[k++] = g->prev[j];
+}
+
+/* Whether fo_steps_gyro can take the block: dense (the gyro state is by
+ * lane index, the tile's by position) and every gyration begun. */
+static int fo_gyro_ready(const struct fo_ctx *c, const struct gcp_block *b, size_t n)
+{
+    const struct gcp_fo_gyro *g = c->gy;
+    int ok = c->gyro_tile && n <= g->nlanes;
+    for (size_t i = 0; ok && i < n; i++) ok = b->index[i] == i && g->init[i];
+    return ok;
+}
+
+/* Up to GCP_FO_GYRO_STEPS fused steps with the observer's per-step work
+ * (fo_gyro_priv.h), as fo_steps.  Where a lane stops after step kd of a
+ * tile, x, u and the gyro state of every lane are restored and the call
+ * is run again to kd - 1 steps (no lane stops in them: every tile ran them
+ * all), or, for kd = 1, one plain fused step whose observer work the
+ * sampler then does itself (gy->steps = 0): the stop itself is seen as
+ * without gyro, and the sampler's loss interpolation has the last
+ * position before it. */
+static int64_t fo_steps_gyro(const struct gcp_evolve *ev, struct fo_ctx *c, struct gcp_block *b,
+                             size_t n, int64_t kmax, int32_t *stops)
+{
+    struct gcp_fo_gyro *g = c->gy;
+    if (kmax > GCP_FO_GYRO_STEPS) kmax = GCP_FO_GYRO_STEPS;
+    const int64_t need = (int64_t)n * kmax;
+    if (g->cap < need) {
+        struct gcp_fo_gyro_rec *r = realloc(g->rec, (size_t)need * sizeof *r);
+        if (!r) return -1;
+        g->rec = r, g->cap = need;
+    }
+    double *a[6];
+    fo_state_arrays(b, a);
+    void *ga[21];
+    fo_gyro_arrays(g, ga);
+    for (int k = 0; k < 6; k++) memcpy(c->gsave + (size_t)k * b->n, a[k], n * sizeof(double));
+    for (int k = 0; k < 21; k++) memcpy(c->gsave + (size_t)(6 + k) * b->n, ga[k], n * sizeof(double));
+    const int64_t k0 = ev->o->nsteps - c->left;
+    const double t0 = ev->o->t0;
+    int64_t kd = kmax;
+    int32_t stopped = 0;
+    int hg_mode = (c->hg_valid ? GCP_FO_HG_IN : 0) | (kmax < c->left ? GCP_FO_HG_OUT : 0);
+    g->nrec = 0;
+    for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE) {
+        const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
+        const int64_t k = c->gyro_tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0,
+                                       a[5] + i0, b->hg + i0, hg_mode, nt, kd, &c->targs,
+                                       &stopped, g, i0, t0, k0);
+        if (k < kd) kd = k;
+    }
+    int64_t taken = kd;
+    if (stopped) {
+        for (int k = 0; k < 6; k++) memcpy(a[k], c->gsave + (size_t)k * b->n, n * sizeof(double));
+        for (int k = 0; k < 21; k++)
+            memcpy(ga[k], c->gsave + (size_t)(6 + k) * b->n, n * sizeof(double));
+        g->nrec = 0;
+        /* the restored u's drift factors from u, not b->hg (the first run's) */
+        taken = kd > 1 ? kd - 1 : 1;
+        hg_mode = taken < c->left ? GCP_FO_HG_OUT : 0;
+        stopped = 0;
+        for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE) {
+            const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
+            if (kd > 1)
+                c->gyro_tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0,
+                             b->hg + i0, hg_mode, nt, taken, &c->targs, &stopped, g, i0, t0, k0);
+            else
+                c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, a[4] + i0, a[5] + i0,
+                        b->hg + i0, hg_mode, nt, 1, &c->targs, &stopped);
+        }
+    }
+    g->steps = stopped ? 0 : taken;
+    *stops = stopped;
+    if (stopped) memset(b->fstatus, 0, n * sizeof(int32_t));
+    c->left -= taken;
+    c->hg_valid = (hg_mode & GCP_FO_HG_OUT) != 0;
+    return taken;
+}
+
 static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                         double t, double dt, int64_t kmax, int32_t *stops,
                         unsigned char *lanes)
@@ -155,6 +253,14 @@ static int64_t fo_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_bloc
     struct fo_ctx *c = vctx;
     (void)ev, (void)t, (void)dt, (void)lanes;
     if (!c->tile) return 0;
+    if (c->gy) {
+        c->gy->steps = 0;
+        if (fo_gyro_ready(c, b, n)) {
+            const int64_t k = fo_steps_gyro(ev, c, b, n, kmax, stops);
+            if (k > 0) return k;
+        }
+        kmax = 1; /* the sampler does this step's observer work itself */
+    }
     double *a[6];
     fo_state_arrays(b, a);
     if (kmax > 1)
@@ -200,9 +306,19 @@ static const struct gcp_stepper fo_stepper = {
     .step = fo_step,
 };
 
-size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
-                            const struct gcp_pusher_type *p, double t0, double dt,
-                            int64_t nsteps, const struct gcp_sampler *sampler)
+/* The same where a sampler of every step has its gyro-average work done
+ * by the fused step (fo_steps_gyro), which then bounds its own steps. */
+static const struct gcp_stepper fo_stepper_gyro = {
+    .gc = 0,
+    .gyro = 1,
+    .relanes = fo_relanes,
+    .steps = fo_steps,
+    .step = fo_step,
+};
+
+static size_t advance_fo(struct gcp_block *b, const struct gcp_field *f,
+                         const struct gcp_pusher_type *p, double t0, double dt, int64_t nsteps,
+                         const struct gcp_sampler *sampler, struct gcp_fo_gyro *gyro)
 {
     /* Chosen once: with no electric field the gathered E stays zero, or the
      * pusher's pure-magnetic kick skips the E terms altogether. */
@@ -228,6 +344,15 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
             .q = b->q, .m = b->m, .dt = dt, .h = 0.5 * dt, .rin2 = f->r_inner * f->r_inner,
             .rout2 = f->r_outer * f->r_outer, .zmax = f->z_max};
         memcpy(c.targs.p, form.p, sizeof form.p);
+        /* the observer's per-step work in the tile loop (fo_gyro_priv.h):
+         * B-only forms with a gyro kernel, a sampler of every step */
+        if (gyro && sampler && sampler->fn && sampler->every == 1) {
+            c.gy = gyro;
+            if (!form.has_E) c.gyro_tile = p->fused->gyro[form.form];
+            if (c.gyro_tile &&
+                (nsteps <= 1 || !(c.gsave = malloc(27 * (b->n + 1) * sizeof(double)))))
+                c.gyro_tile = NULL;
+        }
         if (nsteps > 1) {
             /* without memory, the block step (the same numbers) */
             c.save = malloc(6 * (b->n + 1) * sizeof(double));
@@ -237,10 +362,28 @@ size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
         }
     }
     const struct gcp_push_opts o = {.t0 = t0, .dt = dt, .nsteps = nsteps};
-    const size_t live = gcp_evolve_inline(b, f, &o, sampler, &fo_stepper, &c);
+    const size_t live = c.gy ? gcp_evolve_inline(b, f, &o, sampler, &fo_stepper_gyro, &c)
+                             : gcp_evolve_inline(b, f, &o, sampler, &fo_stepper, &c);
     free(c.save);
     free(c.done);
+    free(c.gsave);
+    if (c.gy) c.gy->steps = 0;
     return live;
+}
+
+size_t gcp_block_advance_fo(struct gcp_block *b, const struct gcp_field *f,
+                            const struct gcp_pusher_type *p, double t0, double dt,
+                            int64_t nsteps, const struct gcp_sampler *sampler)
+{
+    return advance_fo(b, f, p, t0, dt, nsteps, sampler, NULL);
+}
+
+size_t gcp_block_advance_fo_gyro(struct gcp_block *b, const struct gcp_field *f,
+                                 const struct gcp_pusher_type *p, const struct gcp_push_opts *o,
+                                 const struct gcp_sampler *s, struct gcp_fo_gyro *gyro)
+{
+    if (p->advance != gcp_block_advance_fo_opts) return p->advance(b, f, p, o, s);
+    return advance_fo(b, f, p, o->t0, o->dt, o->nsteps, s, gyro);
 }
 
 size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,

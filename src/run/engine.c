@@ -216,6 +216,9 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
     const struct gcp_sampler traj_sampler = sampler;
     struct multi_ctx mc = {obs, e->watch, S ? P->trajectory_every : 0, 0, &tc};
     if (obs || e->watch) sampler = (struct gcp_sampler){1, multi_sample, &mc};
+    /* the observer alone (no trajectory or watcher, which count calls):
+     * a fused full-orbit step may do its per-step work (issue 12) */
+    struct gcp_fo_gyro *gyro = obs && !S && !e->watch && !hy ? gcp_observer_fo_gyro(obs) : NULL;
     gcp_block_start(b, s->field, t0);
     if (hy) gcp_hybrid_begin(hy, b, s->field, t0, e->first);
     if (S) record(b, t0, &tc);
@@ -251,6 +254,7 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
         opts.t0 = t0 + (double)done * P->dt;
         opts.nsteps = P->nsteps - done < slice ? P->nsteps - done : slice;
         if (hy) gcp_hybrid_advance(hy, b, s->field, &opts, S ? &traj_sampler : NULL);
+        else if (gyro) gcp_block_advance_fo_gyro(b, s->field, s->pusher, &opts, smp, gyro);
         else s->pusher->advance(b, s->field, s->pusher, &opts, smp);
         done += opts.nsteps;
     }
