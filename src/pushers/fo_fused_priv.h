@@ -92,8 +92,13 @@ struct gcp_fo_fused {
  * lane's U, V, W with bx, by, bz (and the form's E).  With CARRY_ = 1 the
  * kick gets 1/gamma(u) as 1.0 / G0, G0 = gamma(u) kept per lane from the
  * previous step's drift factor (the same sqrt of the same u: bit-identical,
- * one sqrt a step fewer; only without E, where the kick's u- is u). */
+ * one sqrt a step fewer; only without E, where the kick's u- is u).
+ * With NEWT_ = 1 (a Newtonian pusher, u = v: boris-nr) the drift factor is
+ * h itself, the block step's (fo_step.c half_drift_factor): no gamma, no
+ * per-lane drift factor kept, hg_io never touched. */
 #define GCP_FO_TILE_DEFINE_(FNAME, FORM_, KICK_, CARRY_)                                        \
+    GCP_FO_TILE_DEFINE_N_(FNAME, FORM_, KICK_, CARRY_, 0)
+#define GCP_FO_TILE_DEFINE_N_(FNAME, FORM_, KICK_, CARRY_, NEWT_)                               \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
                          double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
@@ -103,7 +108,8 @@ struct gcp_fo_fused {
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
         double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                                 \
         (void)q, (void)m, (void)dt, (void)G;                                                    \
-        if (hg_mode & GCP_FO_HG_IN) {                                                           \
+        if (NEWT_) {                                                                            \
+        } else if (hg_mode & GCP_FO_HG_IN) {                                                    \
             for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
             if (CARRY_)                                                                         \
                 for (size_t i = 0; i < nt; i++) G[i] = gcp_gamma_of_u(ux[i], uy[i], uz[i]);     \
@@ -119,20 +125,20 @@ struct gcp_fo_fused {
             int32_t any = 0;                                                                    \
             for (size_t i = 0; i < nt; i++) {                                                   \
                 double U = ux[i], V = uy[i], W = uz[i];                                         \
-                const double g0 = hg[i];                                                        \
+                const double g0 = NEWT_ ? h : hg[i];                                            \
                 const double G0 = CARRY_ ? G[i] : 1.0;                                          \
                 (void)G0;                                                                       \
                 const double X = x[i] + U * g0, Y = y[i] + V * g0, Z = z[i] + W * g0;           \
                 double bx, by, bz;                                                              \
                 FORM_(X, Y, Z, bx, by, bz);                                                     \
                 KICK_;                                                                          \
-                const double G1 = gcp_gamma_of_u(U, V, W);                                      \
+                const double G1 = NEWT_ ? 1.0 : gcp_gamma_of_u(U, V, W);                        \
                 if (CARRY_) G[i] = G1;                                                          \
-                const double g1 = h / G1;                                                       \
+                const double g1 = NEWT_ ? h : h / G1;                                           \
                 const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                 \
                 x[i] = X1, y[i] = Y1, z[i] = Z1;                                                \
                 ux[i] = U, uy[i] = V, uz[i] = W;                                                \
-                hg[i] = g1;                                                                     \
+                if (!NEWT_) hg[i] = g1;                                                         \
                 const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
                 const double u2 = U * U + V * V + W * W;                                        \
                 any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
@@ -143,7 +149,7 @@ struct gcp_fo_fused {
                 break;                                                                          \
             }                                                                                   \
         }                                                                                       \
-        if (hg_mode & GCP_FO_HG_OUT)                                                            \
+        if (!NEWT_ && (hg_mode & GCP_FO_HG_OUT))                                                \
             for (size_t i = 0; i < nt; i++) hg_io[i] = hg[i];                                   \
         return s;                                                                               \
     }
@@ -164,6 +170,20 @@ struct gcp_fo_fused {
                         KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_,                              \
                         KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0)   \
+    static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
+        .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
+                 [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}}};
+
+/* The fused kernel set of a Newtonian pusher NAME (u = v, drift x += u h):
+ * KICK and KICK_B as above (KICK_B without inv_gamma). */
+#define GCP_FO_FUSED_DEFINE_NEWTONIAN(NAME, KICK, KICK_B)                                       \
+    GCP_FO_TILE_DEFINE_N_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_,                               \
+                          KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 0, 1)                       \
+    GCP_FO_TILE_DEFINE_N_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_,                             \
+                          KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 0, 1)                       \
+    GCP_FO_TILE_DEFINE_N_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_,                            \
+                          KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0, \
+                          1)                                                                    \
     static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
         .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}}};

@@ -21,6 +21,7 @@
 
 static const struct gcp_pusher_type *const all_pushers[] = {
     &gcp_pusher_boris, &gcp_pusher_boris_zu, &gcp_pusher_vay, &gcp_pusher_higuera_cary,
+    &gcp_pusher_boris_nr,
     &gcp_pusher_gc_rk4, &gcp_pusher_gc_rk45, &gcp_pusher_gc_rk8pd,
     &gcp_pusher_gc_midpoint_pphi, &gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4,
     &gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman, NULL};
@@ -49,11 +50,15 @@ const struct gcp_pusher_type *gcp_pusher_lookup(const char *name)
 }
 
 /* hg = h / gamma(u): the same expression as gcp_drift_batch, so the split
- * drift is bit-identical to it. */
+ * drift is bit-identical to it; hg = h for a Newtonian pusher (u = v). */
 static void half_drift_factor(size_t n, const double *restrict ux, const double *restrict uy,
-                              const double *restrict uz, double *restrict hg, double h)
+                              const double *restrict uz, double *restrict hg, double h,
+                              int newtonian)
 {
-    for (size_t i = 0; i < n; i++) hg[i] = h / gcp_gamma_of_u(ux[i], uy[i], uz[i]);
+    if (newtonian)
+        for (size_t i = 0; i < n; i++) hg[i] = h;
+    else
+        for (size_t i = 0; i < n; i++) hg[i] = h / gcp_gamma_of_u(ux[i], uy[i], uz[i]);
 }
 
 static void drift_by(size_t n, double *restrict x, double *restrict y, double *restrict z,
@@ -107,7 +112,7 @@ static void fo_relanes(const struct gcp_evolve *ev, void *vctx, struct gcp_block
         c->hg_valid = 0;
         return;
     }
-    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, 0.5 * ev->o->dt);
+    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, 0.5 * ev->o->dt, c->p->newtonian);
 }
 
 static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
@@ -123,7 +128,7 @@ static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block
     if (c->kick_B) c->kick_B(n, b->ux, b->uy, b->uz, b->Bx, b->By, b->Bz, b->q, b->m, dt);
     else
         c->p->kick(n, b->ux, b->uy, b->uz, b->Ex, b->Ey, b->Ez, b->Bx, b->By, b->Bz, b->q, b->m, dt);
-    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h);
+    half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, h, c->p->newtonian);
     drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
     return 0;
 }
