@@ -25,11 +25,13 @@
  * 8 u_r (N + Phi), Phi = N theta the total phase.  Cost: ~0.3 s. */
 #include <float.h>
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include <criterion/criterion.h>
 
 #include "gcpush/field.h"
+#include "gcpush/field_kernels.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
@@ -284,4 +286,94 @@ Test(boris_nr, gyrofrequency_off_by_gamma_at_relativistic_energy)
     cr_expect_gt(e[0][1], 0.1, "boris-nr follows the relativistic law (%.3e)", e[0][1]);
     cr_expect_gt(e[1][0], 0.1, "boris follows the non-relativistic law (%.3e)", e[1][0]);
     gcp_field_free(f);
+}
+
+/* The fused uniform tiles skip the per-step stop test where it is proved
+ * false (fo_fused_priv.h gcp_fo_nr_cannot_stop: no field bounds, a bounded
+ * finite start).  test_fo_fused.c gives its fields bounds, so here without:
+ * 300 lanes (two full tiles and a partial one) in uniform B and in uniform E
+ * and B (B = 1e-9 T: Omega dt = 0.1 at dt = 1 s), pushed 400 steps by the
+ * fused step and by the block step (a callback twin of the field, no closed
+ * form), with and without a sampler, compared bit for bit.  Lane 150
+ * (tile 1) moves along b at 1e153 m/s: r2 + p2 overflows after ~14 steps,
+ * a NONFINITE stop of the block step that the fused step must give at the
+ * same step (its tile cannot use the proof, the others do and are run
+ * again to the stop); lane 17 starts non-finite. */
+static int twin_eval(double t, const double x[3], struct gcp_field_sample *out, void *ctx)
+{
+    return gcp_field_eval(ctx, t, x, out);
+}
+
+static void run_lanes(const struct gcp_field *f, int64_t every, struct gcp_block *b,
+                      const double bhat[3], uint64_t *hash)
+{
+    enum { NL = 300 };
+    cr_assert_eq(gcp_block_alloc(b, NL), 0);
+    b->q = QP, b->m = MP;
+    unsigned long long s = 99;
+    for (size_t i = 0; i < NL; i++) {
+        b->x[i] = 1e5 * urand(&s), b->y[i] = 1e5 * urand(&s), b->z[i] = 1e5 * urand(&s);
+        b->ux[i] = 1e5 * (2.0 * urand(&s) - 1.0), b->uy[i] = 1e5 * (2.0 * urand(&s) - 1.0);
+        b->uz[i] = 1e5 * (2.0 * urand(&s) - 1.0);
+    }
+    b->x[150] = b->y[150] = b->z[150] = 0.0;
+    b->ux[150] = 1e153 * bhat[0], b->uy[150] = 1e153 * bhat[1], b->uz[150] = 1e153 * bhat[2];
+    b->uy[17] = NAN;
+    gcp_block_start(b, f, 0.0);
+    *hash = 0xCBF29CE484222325ull;
+    for (int64_t k = 0; k < 400; k += every) {
+        gcp_block_advance_fo(b, f, &gcp_pusher_boris_nr, (double)k, 1.0, every, NULL);
+        const double *a[6] = {b->x, b->y, b->z, b->ux, b->uy, b->uz};
+        for (int c = 0; c < 6; c++) {
+            const unsigned char *p = (const unsigned char *)a[c];
+            for (size_t j = 0; j < b->n_active * sizeof(double); j++)
+                *hash = (*hash ^ p[j]) * 0x100000001B3ull;
+        }
+    }
+}
+
+Test(boris_nr, unbounded_uniform_fused_equals_block_step)
+{
+    double bhat[3], B[3], E[3];
+    unit_b(bhat);
+    for (int k = 0; k < 3; k++) B[k] = 1e-9 * bhat[k];
+    const double e1[3] = {bhat[1], -bhat[0], 0.0}; /* perpendicular to b */
+    for (int k = 0; k < 3; k++) E[k] = 1e-6 * e1[k]; /* v_E ~ 1e3 m/s */
+    for (int withE = 0; withE < 2; withE++)
+        for (int r = 0; r < 3; r++) {
+            const int64_t every = r == 0 ? 1 : r == 1 ? 7 : 400;
+            struct gcp_field *f = gcp_field_uniform_create(B, withE ? E : NULL);
+            struct gcp_field *twin = gcp_field_callback_create(twin_eval, f, f->has_E);
+            struct gcp_point_B form;
+            cr_assert(gcp_field_point_B(f, &form) && !(f->r_inner > 0.0) &&
+                      f->r_outer == INFINITY && f->z_max == INFINITY);
+            struct gcp_block a, b;
+            uint64_t ha, hb;
+            run_lanes(f, every, &a, bhat, &ha);
+            run_lanes(twin, every, &b, bhat, &hb);
+            cr_expect_eq(a.n_active, b.n_active);
+            cr_expect_eq(a.n_active, 298u, "E %d every %d: %zu live", withE, (int)every,
+                         a.n_active);
+            cr_expect_eq(ha, hb, "E %d every %d: the live lanes differ along the push", withE,
+                         (int)every);
+            for (size_t i = 0; i < a.n; i++) {
+                const double *da[7] = {a.x, a.y, a.z, a.ux, a.uy, a.uz, a.t};
+                const double *db[7] = {b.x, b.y, b.z, b.ux, b.uy, b.uz, b.t};
+                for (int k = 0; k < 7; k++)
+                    cr_expect(memcmp(&da[k][i], &db[k][i], sizeof(double)) == 0,
+                              "E %d every %d lane %zu array %d: %.17g vs %.17g", withE,
+                              (int)every, i, k, da[k][i], db[k][i]);
+                cr_expect_eq(a.status[i], b.status[i]);
+                cr_expect_eq(a.steps[i], b.steps[i]);
+                cr_expect_eq(a.index[i], b.index[i]);
+                if (a.index[i] == 150)
+                    cr_expect(a.status[i] == GCP_NONFINITE && a.steps[i] > 5 && a.steps[i] < 50,
+                              "lane 150: status %d after %lld steps", a.status[i],
+                              (long long)a.steps[i]);
+            }
+            gcp_block_free(&a);
+            gcp_block_free(&b);
+            gcp_field_free(twin);
+            gcp_field_free(f);
+        }
 }
