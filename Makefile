@@ -117,7 +117,7 @@ fields/data/dipole.h5: runs/grid-dipole.run $(BIN)
 	@echo "  GRID  $@"
 	@ASAN_OPTIONS=detect_leaks=0 ./$(BIN) grid runs/grid-dipole.run > /dev/null
 
-$(BUILD)/%.o: %.c $(wildcard include/gcpush/*.h src/*.h src/*/*.h fields/*.h)
+$(BUILD)/%.o: %.c $(wildcard include/gcpush/*.h src/*.h src/*/*.h fields/*.h tests/unit/*.h)
 	@mkdir -p $(dir $@)
 	@echo "  CC    $<"
 	@$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@

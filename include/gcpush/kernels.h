@@ -1,7 +1,8 @@
 /* gcpush/kernels.h -- header-only relativistic particle-push kernels.
  *
  * For PIC codes and for gcpush itself: one implementation.  Plain doubles,
- * SI units, u = gamma v [m/s].  Each kernel is the momentum update ("kick")
+ * SI units, u = gamma v [m/s] (the non-relativistic gcp_push_boris_nr: u = v;
+ * its position update is x += u h, no gamma).  Each kernel is the momentum update ("kick")
  * over one time step dt [s] with the fields E [V/m], B [T] gathered at the
  * particle's position at mid-step; the position update is the caller's,
  * as in PIC codes (gcpush uses the synchronised drift-kick-drift form:
@@ -98,6 +99,70 @@ static inline GCP_HD void gcp_push_boris(double *ux, double *uy, double *uz,
     const double qdt2m = 0.5 * q * dt / m;
     double vx = *ux + qdt2m * Ex, vy = *uy + qdt2m * Ey, vz = *uz + qdt2m * Ez;
     gcp_boris_rotate_(&vx, &vy, &vz, Bx, By, Bz, qdt2m);
+    *ux = vx + qdt2m * Ex;
+    *uy = vy + qdt2m * Ey;
+    *uz = vz + qdt2m * Ez;
+}
+
+/* Non-relativistic Boris push (Boris 1970; Birdsall & Langdon, Plasma
+ * Physics via Computer Simulation, secs. 4-3, 4-4), for codes whose
+ * particles are slow (|v| << c: electrostatic and non-relativistic ion
+ * codes).  Here u = v [m/s]: the Newtonian velocity, which is also p/m
+ * with p = m v, so the arrays that hold u = gamma v for the relativistic
+ * kernels hold v; there is no gamma anywhere (no sqrt, one division for s,
+ * none at all where t and s are the same for every particle, as in a
+ * uniform B).  With qdt2m = q dt / 2m:
+ *   v-  = v + qdt2m E
+ *   t   = qdt2m B,   s = 2 t / (1 + t^2)
+ *   v'  = v- + v- x t,   v+ = v- + v' x s
+ *   v   = v+ + qdt2m E
+ * |v| is kept exactly in pure B (a rotation, by 2 atan(Omega dt / 2) per
+ * step, Omega = |q B| / m: the gyrophase lags at large Omega dt); E x B is
+ * drifted at exactly E x B / B^2 for any Omega dt.  Differs from the
+ * relativistic gcp_push_boris by the gyrofrequency's factor gamma: use it
+ * only where gamma - 1 is below the accuracy asked for. */
+/* The cross products as explicit fused multiply-adds, a + b c - d e =
+ * fma(b, c, fma(-d, e, a)), where the target has a fast fma (C99
+ * FP_FAST_FMA: x86 with FMA3, AArch64, CUDA devices), else as separate
+ * products and sums.  fma() is one correctly rounded IEEE operation, not a
+ * contraction the compiler may or may not make, so the scalar, batch, AoS
+ * and gcpush's fused forms stay bit-identical to one another in any one
+ * build (-ffp-contract=off or not); builds with and without FMA differ in
+ * the last bits.  It halves the kick's operations: 12 fused operations
+ * where 12 products and 12 sums were (the push is bound by them).
+ * GCP_NR_FMA_(a, b, c) = a b + c, the same choice (gcpush's position
+ * update for boris-nr, x + (u0 + u1) dt/2, is GCP_NR_FMA_(u0 + u1, h, x)). */
+#if defined(FP_FAST_FMA) || defined(__CUDA_ARCH__)
+#define GCP_NR_FMA_(a, b, c) fma(a, b, c)
+#define GCP_NR_CROSS_(a, b, c, d, e) fma(b, c, fma(-(d), e, a))
+#else
+#define GCP_NR_FMA_(a, b, c) ((a) * (b) + (c))
+#define GCP_NR_CROSS_(a, b, c, d, e) ((a) + ((b) * (c) - (d) * (e)))
+#endif
+
+static inline GCP_HD void gcp_boris_nr_rotate_(double *ux, double *uy, double *uz, double Bx,
+                                               double By, double Bz, double qdt2m)
+{
+    const double umx = *ux, umy = *uy, umz = *uz;
+    const double tx = qdt2m * Bx, ty = qdt2m * By, tz = qdt2m * Bz;
+    const double f = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
+    const double sx = f * tx, sy = f * ty, sz = f * tz;
+    const double upx = GCP_NR_CROSS_(umx, umy, tz, umz, ty);
+    const double upy = GCP_NR_CROSS_(umy, umz, tx, umx, tz);
+    const double upz = GCP_NR_CROSS_(umz, umx, ty, umy, tx);
+    *ux = GCP_NR_CROSS_(umx, upy, sz, upz, sy);
+    *uy = GCP_NR_CROSS_(umy, upz, sx, upx, sz);
+    *uz = GCP_NR_CROSS_(umz, upx, sy, upy, sx);
+}
+
+static inline GCP_HD void gcp_push_boris_nr(double *ux, double *uy, double *uz,
+                                            double Ex, double Ey, double Ez,
+                                            double Bx, double By, double Bz,
+                                            double q, double m, double dt)
+{
+    const double qdt2m = 0.5 * q * dt / m;
+    double vx = *ux + qdt2m * Ex, vy = *uy + qdt2m * Ey, vz = *uz + qdt2m * Ez;
+    gcp_boris_nr_rotate_(&vx, &vy, &vz, Bx, By, Bz, qdt2m);
     *ux = vx + qdt2m * Ex;
     *uy = vy + qdt2m * Ey;
     *uz = vz + qdt2m * Ez;
@@ -271,6 +336,7 @@ static inline GCP_HD void gcp_push_higuera_cary(double *ux, double *uy, double *
     }
 
 GCP_DEFINE_BATCH_(gcp_push_boris)
+GCP_DEFINE_BATCH_(gcp_push_boris_nr)
 GCP_DEFINE_BATCH_(gcp_push_boris_zu)
 GCP_DEFINE_BATCH_(gcp_push_vay)
 GCP_DEFINE_BATCH_(gcp_push_higuera_cary)
@@ -306,6 +372,33 @@ static inline GCP_HD void gcp_push_boris_B_batch(size_t n, double *GCP_RESTRICT 
     for (size_t i = 0; i < n; i++) {
         double a = ux[i], b = uy[i], c = uz[i];
         gcp_push_boris_B(&a, &b, &c, Bx[i], By[i], Bz[i], q, m, dt);
+        ux[i] = a;
+        uy[i] = b;
+        uz[i] = c;
+    }
+}
+
+/* Non-relativistic Boris in a pure magnetic field (E = 0): the rotation of
+ * gcp_push_boris_nr without its electric half-kicks (equal to it with E = 0
+ * but for the sign of a zero component, as gcp_push_boris_B). */
+static inline GCP_HD void gcp_push_boris_nr_B(double *ux, double *uy, double *uz, double Bx,
+                                              double By, double Bz, double q, double m,
+                                              double dt)
+{
+    gcp_boris_nr_rotate_(ux, uy, uz, Bx, By, Bz, 0.5 * q * dt / m);
+}
+
+static inline GCP_HD void gcp_push_boris_nr_B_batch(size_t n, double *GCP_RESTRICT ux,
+                                                    double *GCP_RESTRICT uy,
+                                                    double *GCP_RESTRICT uz,
+                                                    const double *GCP_RESTRICT Bx,
+                                                    const double *GCP_RESTRICT By,
+                                                    const double *GCP_RESTRICT Bz, double q,
+                                                    double m, double dt)
+{
+    for (size_t i = 0; i < n; i++) {
+        double a = ux[i], b = uy[i], c = uz[i];
+        gcp_push_boris_nr_B(&a, &b, &c, Bx[i], By[i], Bz[i], q, m, dt);
         ux[i] = a;
         uy[i] = b;
         uz[i] = c;
@@ -418,6 +511,7 @@ struct gcp_particle_aos {
     }
 
 GCP_DEFINE_AOS_(gcp_push_boris)
+GCP_DEFINE_AOS_(gcp_push_boris_nr)
 GCP_DEFINE_AOS_(gcp_push_boris_zu)
 GCP_DEFINE_AOS_(gcp_push_vay)
 GCP_DEFINE_AOS_(gcp_push_higuera_cary)

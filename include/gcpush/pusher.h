@@ -85,9 +85,13 @@ struct gcp_pusher_type {
      * fused into one loop for the closed-form fields of field_kernels.h
      * (src/pushers/fo_fused_priv.h; NULL: the block step, the same numbers). */
     const struct gcp_fo_fused *fused;
+    /* [bool] full orbit: Newtonian mechanics, u = v [m/s] (boris-nr): the
+     * drifts are x += u dt/2 with no gamma.  0: u = gamma v (relativistic). */
+    int newtonian;
 };
 
 extern const struct gcp_pusher_type gcp_pusher_boris;
+extern const struct gcp_pusher_type gcp_pusher_boris_nr;
 extern const struct gcp_pusher_type gcp_pusher_boris_zu;
 extern const struct gcp_pusher_type gcp_pusher_vay;
 extern const struct gcp_pusher_type gcp_pusher_higuera_cary;

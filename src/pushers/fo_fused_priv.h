@@ -39,6 +39,7 @@
 #ifndef GCPUSH_FO_FUSED_PRIV_H
 #define GCPUSH_FO_FUSED_PRIV_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -349,5 +350,134 @@ struct gcp_fo_fused {
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}},                          \
         .gyro = {[GCP_POINT_B_UNIFORM] = NAME##_gyro_uniform_B,                                 \
                  [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B}};
+
+/* ---- Newtonian pushers (u = v: boris-nr) --------------------------------
+ *
+ * The Newtonian step of fo_step.c (fo_step_newtonian), the same operations:
+ *   x_1/2 = x + u0 h  (the field's point),  u1 = kick(u0; E, B(x_1/2)),
+ *   x1 = x + (u0 + u1) h
+ * (h = dt/2; GCP_NR_FMA_, kernels.h) -- drift-kick-drift with its two half
+ * drifts summed once: no gamma, nothing kept per lane between steps, hg_io
+ * never touched; in a uniform form x_1/2 is not computed at all.
+ *
+ * The per-step stop test costs as much as a third of this step (it is all
+ * additions and multiplications, and the test's 6 squares and 5 sums share
+ * their pipes), so a uniform form skips it where it is proved false for
+ * every lane at every step of the call (gcp_fo_nr_cannot_stop): with the
+ * field's bounds all absent (r_inner = 0, r_outer = z_max = inf) a lane
+ * stops only when r2 + p2 is not finite, and from a finite start with
+ *   |u|_1 + 2 k |e|_1 <= U_B,  |x|_1 + 2 h k (|u|_1 + 2 k |e|_1) <= X_B,
+ *   |t|_1 <= T_B  (e = q dt E / 2m, t = q dt B / 2m, k = kmax)
+ * every lane stays finite with |u| <= U_B and |x| <= X_B for all k steps:
+ * the rotation keeps |u-| and the two half kicks add at most 2 |e| a step
+ * (Boris: |u_{n+1}| <= |u_n| + 2 |e|), each half drift moves x by at most
+ * h |u|, and the rotation's intermediate u' is at most |u-| (1 + |t|);
+ * |s| <= 1.  U_B = X_B = 1e150 and T_B = 1e149 leave r2 + p2 <= 6e300,
+ * a factor 3e7 below DBL_MAX -- room for the round-off of 1e15 steps
+ * (|u| grows by at most ~20 eps a step in floating point).  Where the proof
+ * does not go through (a bound, a huge state or step, kmax = 1) the test
+ * runs every step as in the relativistic tiles.  The proof is about the
+ * arithmetic, not the physics: it covers any state it admits, and the
+ * verdicts are the block step's (tests/unit/test_fo_fused.c). */
+#define GCP_FO_NR_UB_ 1e150
+#define GCP_FO_NR_TB_ 1e149
+static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *restrict y,
+                                        const double *restrict z, const double *restrict ux,
+                                        const double *restrict uy, const double *restrict uz,
+                                        size_t nt, int64_t kmax,
+                                        const struct gcp_fo_tile_args *a, double emag,
+                                        double bmag)
+{
+    if (kmax < 2 || !(a->rin2 <= 0.0) || a->rout2 != INFINITY || a->zmax != INFINITY) return 0;
+    const double qdt2m = fabs(0.5 * a->q * a->dt / a->m), k = (double)kmax;
+    const double e2k = 2.0 * k * qdt2m * emag, h2k = 2.0 * k * fabs(a->h);
+    if (!(qdt2m * bmag <= GCP_FO_NR_TB_) || !(e2k <= GCP_FO_NR_UB_) || !(h2k <= 1e300))
+        return 0;
+    int32_t bad = 0;
+    for (size_t i = 0; i < nt; i++) {
+        const double um = (fabs(ux[i]) + fabs(uy[i]) + fabs(uz[i])) + e2k;
+        const double xm = (fabs(x[i]) + fabs(y[i]) + fabs(z[i])) + h2k * um;
+        bad |= !((um <= GCP_FO_NR_UB_) & (xm <= GCP_FO_NR_UB_));
+    }
+    return !bad;
+}
+
+/* One Newtonian tile function (FORM_, KICK_ as above); EMAG_ and BMAG_ the
+ * 1-norms of the form's E and B for gcp_fo_nr_cannot_stop, or FREE_ = 0:
+ * the per-step test always (the dipole: its inner bound is a stop). */
+#define GCP_FO_NR_LANE_(FORM_, KICK_)                                                           \
+    const double U0 = ux[i], V0 = uy[i], W0 = uz[i];                                            \
+    const double X = GCP_NR_FMA_(U0, h, x[i]), Y = GCP_NR_FMA_(V0, h, y[i]),                   \
+                 Z = GCP_NR_FMA_(W0, h, z[i]);                                                  \
+    double bx, by, bz, U = U0, V = V0, W = W0;                                                  \
+    (void)X, (void)Y, (void)Z;                                                                  \
+    FORM_(X, Y, Z, bx, by, bz);                                                                 \
+    KICK_;                                                                                      \
+    const double X1 = GCP_NR_FMA_(U0 + U, h, x[i]), Y1 = GCP_NR_FMA_(V0 + V, h, y[i]),         \
+                 Z1 = GCP_NR_FMA_(W0 + W, h, z[i]);                                             \
+    x[i] = X1, y[i] = Y1, z[i] = Z1;                                                            \
+    ux[i] = U, uy[i] = V, uz[i] = W;
+#define GCP_FO_NR_TILE_DEFINE_(FNAME, FORM_, KICK_, FREE_, EMAG_, BMAG_)                        \
+    /* one unchecked step of the tile: a function of its own, so that the    \
+     * compiler keeps the lanes innermost (it interchanges a bare loop nest   \
+     * and then vectorises neither loop) */                                   \
+    static __attribute__((noinline)) void FNAME##_free_(                                        \
+        double *restrict x, double *restrict y, double *restrict z, double *restrict ux,        \
+        double *restrict uy, double *restrict uz, size_t nt, int64_t kmax,                      \
+        const struct gcp_fo_tile_args *a)                                                       \
+    {                                                                                           \
+        const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
+        (void)q, (void)m, (void)dt;                                                             \
+        for (int64_t s = 0; s < kmax; s++)                                                      \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                GCP_FO_NR_LANE_(FORM_, KICK_)                                                   \
+            }                                                                                   \
+    }                                                                                           \
+    static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
+                         double *restrict ux, double *restrict uy, double *restrict uz,         \
+                         double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
+                         const struct gcp_fo_tile_args *a, int32_t *stopped)                    \
+    {                                                                                           \
+        const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
+        const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
+        (void)q, (void)m, (void)dt, (void)hg_io, (void)hg_mode;                                 \
+        if (FREE_ && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_)) {   \
+            FNAME##_free_(x, y, z, ux, uy, uz, nt, kmax, a);                                    \
+            return kmax;                                                                        \
+        }                                                                                       \
+        int64_t s = 0;                                                                          \
+        for (; s < kmax; s++) {                                                                 \
+            int32_t any = 0;                                                                    \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                GCP_FO_NR_LANE_(FORM_, KICK_)                                                   \
+                const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
+                const double u2 = U * U + V * V + W * W;                                        \
+                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
+            }                                                                                   \
+            if (any) {                                                                          \
+                *stopped = 1;                                                                   \
+                s++;                                                                            \
+                break;                                                                          \
+            }                                                                                   \
+        }                                                                                       \
+        return s;                                                                               \
+    }
+
+/* The fused kernel set of a Newtonian pusher NAME: KICK(ux, uy, uz, Ex, Ey,
+ * Ez, Bx, By, Bz, q, m, dt) and KICK_B(ux, uy, uz, Bx, By, Bz, q, m, dt)
+ * (E = 0).  Defines gcp_fo_fused_NAME_. */
+#define GCP_FO_ABS3_(P) (fabs((P)[0]) + fabs((P)[1]) + fabs((P)[2]))
+#define GCP_FO_FUSED_DEFINE_NEWTONIAN(NAME, KICK, KICK_B)                                       \
+    GCP_FO_NR_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_,                              \
+                           KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 0, 0.0, 0.0)               \
+    GCP_FO_NR_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_,                            \
+                           KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 1, 0.0,                    \
+                           GCP_FO_ABS3_(a->p))                                                  \
+    GCP_FO_NR_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_,                           \
+                           KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt),   \
+                           1, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p))                       \
+    static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
+        .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
+                 [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}}};
 
 #endif

@@ -21,6 +21,7 @@
 
 static const struct gcp_pusher_type *const all_pushers[] = {
     &gcp_pusher_boris, &gcp_pusher_boris_zu, &gcp_pusher_vay, &gcp_pusher_higuera_cary,
+    &gcp_pusher_boris_nr,
     &gcp_pusher_gc_rk4, &gcp_pusher_gc_rk45, &gcp_pusher_gc_rk8pd,
     &gcp_pusher_gc_midpoint_pphi, &gcp_pusher_gc_gl2, &gcp_pusher_gc_gl4,
     &gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman, NULL};
@@ -120,7 +121,49 @@ static void fo_relanes(const struct gcp_evolve *ev, void *vctx, struct gcp_block
         c->hg_valid = 0;
         return;
     }
+    if (c->p->newtonian) return; /* no drift factor: fo_step_newtonian */
     half_drift_factor(n, b->ux, b->uy, b->uz, b->hg, 0.5 * ev->o->dt);
+}
+
+/* The step of a Newtonian pusher (u = v, boris-nr): the drift-kick-drift
+ * with its two half drifts summed once,
+ *   x_1/2 = x + u0 h,  u1 = kick(u0; E, B(x_1/2)),  x1 = x + (u0 + u1) h,
+ * (GCP_NR_FMA_: fused where the target has fma, kernels.h), the operations
+ * of the fused Newtonian tiles (fo_fused_priv.h), so the same bits.  x_1/2
+ * and u0 live in stack tiles of GCP_FO_TILE lanes, the field is evaluated
+ * tile by tile (per point, so the same numbers as over the whole block). */
+static int32_t fo_step_newtonian(const struct fo_ctx *c, const struct gcp_field *f,
+                                 struct gcp_block *b, size_t n, double t, double dt)
+{
+    const double h = 0.5 * dt;
+    double xm[GCP_FO_TILE], ym[GCP_FO_TILE], zm[GCP_FO_TILE];
+    double u0[GCP_FO_TILE], v0[GCP_FO_TILE], w0[GCP_FO_TILE];
+    for (size_t i0 = 0; i0 < n; i0 += GCP_FO_TILE) {
+        const size_t nt = n - i0 < GCP_FO_TILE ? n - i0 : GCP_FO_TILE;
+        double *restrict x = b->x + i0, *restrict y = b->y + i0, *restrict z = b->z + i0;
+        double *restrict ux = b->ux + i0, *restrict uy = b->uy + i0, *restrict uz = b->uz + i0;
+        for (size_t i = 0; i < nt; i++) {
+            u0[i] = ux[i], v0[i] = uy[i], w0[i] = uz[i];
+            xm[i] = GCP_NR_FMA_(ux[i], h, x[i]);
+            ym[i] = GCP_NR_FMA_(uy[i], h, y[i]);
+            zm[i] = GCP_NR_FMA_(uz[i], h, z[i]);
+        }
+        memset(b->fstatus + i0, 0, nt * sizeof(int32_t));
+        f->type->eval_block(f, t + h, nt, xm, ym, zm, b->Bx + i0, b->By + i0, b->Bz + i0,
+                            c->Ex ? c->Ex + i0 : NULL, c->Ey ? c->Ey + i0 : NULL,
+                            c->Ez ? c->Ez + i0 : NULL, b->fstatus + i0);
+        if (c->kick_B)
+            c->kick_B(nt, ux, uy, uz, b->Bx + i0, b->By + i0, b->Bz + i0, b->q, b->m, dt);
+        else
+            c->p->kick(nt, ux, uy, uz, b->Ex + i0, b->Ey + i0, b->Ez + i0, b->Bx + i0,
+                       b->By + i0, b->Bz + i0, b->q, b->m, dt);
+        for (size_t i = 0; i < nt; i++) {
+            x[i] = GCP_NR_FMA_(u0[i] + ux[i], h, x[i]);
+            y[i] = GCP_NR_FMA_(v0[i] + uy[i], h, y[i]);
+            z[i] = GCP_NR_FMA_(w0[i] + uz[i], h, z[i]);
+        }
+    }
+    return 0;
 }
 
 static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
@@ -128,6 +171,7 @@ static int32_t fo_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block
 {
     const struct fo_ctx *c = vctx;
     const struct gcp_field *f = ev->f;
+    if (c->p->newtonian) return fo_step_newtonian(c, f, b, n, t, dt);
     const double h = 0.5 * dt;
     drift_by(n, b->x, b->y, b->z, b->ux, b->uy, b->uz, b->hg);
     memset(b->fstatus, 0, n * sizeof(int32_t));

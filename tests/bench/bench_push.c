@@ -465,13 +465,13 @@ static void part_gc(void)
  * Prints ns per particle-step; tests/bench/vs_limit.sh divides by the
  * limit kernels measured in the same `make bench`.
  * ------------------------------------------------------------------------- */
-enum limit_kind { LIMIT_BORIS_DIPOLE, LIMIT_GC_RK4_DIPOLE, LIMIT_BORIS_UNIFORM };
+enum limit_kind { LIMIT_BORIS_DIPOLE, LIMIT_GC_RK4_DIPOLE, LIMIT_BORIS_UNIFORM, LIMIT_NR_UNIFORM_B };
 static const double LIMIT_A_V0 = 1e6; /* [m/s] */
 
 static void init_limit_scene(struct gcp_block *b, size_t nb, enum limit_kind kind, double *dt)
 {
     const int gc = kind == LIMIT_GC_RK4_DIPOLE;
-    if (kind == LIMIT_BORIS_UNIFORM) {
+    if (kind == LIMIT_BORIS_UNIFORM || kind == LIMIT_NR_UNIFORM_B) {
         rng = 0x452821E638D01377ull;
         for (size_t i = 0; i < nb; i++) {
             b->x[i] = urand(), b->y[i] = urand(), b->z[i] = urand();
@@ -510,16 +510,17 @@ static void init_limit_scene(struct gcp_block *b, size_t nb, enum limit_kind kin
 
 static struct gcp_field *limit_field(enum limit_kind kind)
 {
-    if (kind != LIMIT_BORIS_UNIFORM)
+    if (kind != LIMIT_BORIS_UNIFORM && kind != LIMIT_NR_UNIFORM_B)
         return gcp_field_dipole_create(GCP_EARTH_B0, 0, RE + 100e3, 15.0 * RE);
     const double bx = 0.3, by = 0.4, bz = sqrt(0.75);
     const double ey = bz, ez = -by, en = sqrt(ey * ey + ez * ez); /* b x xhat */
-    const double e = 0.05 * LIMIT_A_V0 * 1.0;
+    const double e = kind == LIMIT_NR_UNIFORM_B ? 0.0 : 0.05 * LIMIT_A_V0 * 1.0;
     return gcp_field_uniform_create((const double[3]){bx, by, bz},
                                     (const double[3]){0.0, e * ey / en, e * ez / en});
 }
 
-static double limit_scene(enum limit_kind kind, size_t nb, double total_steps)
+static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p, size_t nb,
+                          double total_steps)
 {
     struct gcp_field *f = limit_field(kind);
     struct gcp_block b;
@@ -539,7 +540,7 @@ static double limit_scene(enum limit_kind kind, size_t nb, double total_steps)
             live = gcp_pusher_gc_rk4.advance(&b, f, &gcp_pusher_gc_rk4, &o, NULL);
         } else {
             gcp_block_start(&b, f, 0.0);
-            live = gcp_block_advance_fo(&b, f, &gcp_pusher_boris, 0.0, dt, nsteps, NULL);
+            live = gcp_block_advance_fo(&b, f, p, 0.0, dt, nsteps, NULL);
         }
         const double t1 = now();
         if (live != nb) fprintf(stderr, "bench_push: %zu of %zu lanes stopped\n", nb - live, nb);
@@ -670,12 +671,20 @@ static void limit_rows(int fo_only)
     const size_t nbs[] = {1024, 8192};
     for (size_t k = 0; k < 2; k++) {
         printf("limit-row boris-uniform %zu %.3f\n", nbs[k],
-               limit_scene(LIMIT_BORIS_UNIFORM, nbs[k], 1e7));
+               limit_scene(LIMIT_BORIS_UNIFORM, &gcp_pusher_boris, nbs[k], 1e7));
         printf("limit-row boris-dipole %zu %.3f\n", nbs[k],
-               limit_scene(LIMIT_BORIS_DIPOLE, nbs[k], 1e7));
+               limit_scene(LIMIT_BORIS_DIPOLE, &gcp_pusher_boris, nbs[k], 1e7));
+        /* boris-nr: kernel (a)'s own method in its scene (E and B), and with
+         * E = 0; in the dipole against (b) (relativistic: more work than ours) */
+        printf("limit-row nr-uniform %zu %.3f\n", nbs[k],
+               limit_scene(LIMIT_BORIS_UNIFORM, &gcp_pusher_boris_nr, nbs[k], 1e7));
+        printf("limit-row nr-uniform-B %zu %.3f\n", nbs[k],
+               limit_scene(LIMIT_NR_UNIFORM_B, &gcp_pusher_boris_nr, nbs[k], 1e7));
+        printf("limit-row nr-dipole %zu %.3f\n", nbs[k],
+               limit_scene(LIMIT_BORIS_DIPOLE, &gcp_pusher_boris_nr, nbs[k], 1e7));
         if (!fo_only)
             printf("limit-row gc-rk4-dipole %zu %.3f\n", nbs[k],
-                   limit_scene(LIMIT_GC_RK4_DIPOLE, nbs[k], 1e6));
+                   limit_scene(LIMIT_GC_RK4_DIPOLE, &gcp_pusher_gc_rk4, nbs[k], 1e6));
     }
 }
 

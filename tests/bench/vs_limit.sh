@@ -4,7 +4,10 @@
 # in this run, one core, resident regime (the limit's "resident" summary rows;
 # ours: one block).  Kernel (a) is non-relativistic Boris (no sqrt, no
 # division); gcpush's Boris is relativistic (2 sqrt and 3 divisions a step in
-# uniform B and E), so its row measures that cost too.
+# uniform B and E), so its row measures that cost too.  The nr-* rows are
+# gcpush's boris-nr, kernel (a)'s own method: nr-uniform in (a)'s scene (E and
+# B), nr-uniform-B with E = 0 (against (a), which adds its zero E), nr-dipole
+# against (b) (relativistic: a sqrt and a division that boris-nr has not).
 # Usage (from tests/bench): sh vs_limit.sh BIN_DIR LIMIT_SRC [scale]
 set -e
 BIN=$1
@@ -31,8 +34,8 @@ PREV=$(dirname "$0")/previous_limit.txt
 echo "$ours" | awk -v ka="$ka" -v kb="$kb" -v kc="$kc" -v prevf="$PREV" '
 BEGIN { while ((getline l < prevf) > 0) { split(l, f, " "); if (f[1] !~ /^#/) prev[f[1] " " f[2]] = f[3] } }
 /^limit-row/ {
-    if ($2 == "boris-uniform") { k = ka; n = "(a)"; g = "<=1.25" }
-    else if ($2 == "boris-dipole") { k = kb; n = "(b)"; g = "<=1.25" }
+    if ($2 == "boris-uniform" || $2 ~ /^nr-uniform/) { k = ka; n = "(a)"; g = "<=1.25" }
+    else if ($2 == "boris-dipole" || $2 == "nr-dipole") { k = kb; n = "(b)"; g = "<=1.25" }
     else { k = kc; n = "(c)"; g = "<=1.5" }
     key = $2 " " $3
     if (key in prev) pr = sprintf("%10.3f %9.2f", prev[key], $4 / prev[key]); else pr = sprintf("%10s %9s", "-", "-")

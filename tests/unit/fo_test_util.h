@@ -19,12 +19,16 @@
 #define FO_EPS DBL_EPSILON /* 2.2e-16 */
 #define FO_C GCP_C_LIGHT
 
-/* The battery: every registered full-orbit pusher, in registry order.
- * FO_FOREACH(p) { ... } runs the body once per full-orbit pusher p. */
+/* The battery: every registered relativistic full-orbit pusher, in
+ * registry order.  FO_FOREACH(p) { ... } runs the body once per such
+ * pusher p.  The Newtonian ones (u = v: boris-nr) are left out: these tests
+ * compare with relativistic theory (gyro-frequencies with gamma, 1 MeV
+ * electrons); boris-nr has its own, test_boris_nr.c, and the registry-wide
+ * batteries (test_conformance.c, test_fo_fused.c) take it. */
 #define FO_FOREACH(p)                                                              \
     for (const struct gcp_pusher_type *const *p##_it_ = gcp_pusher_types(), *p;   \
          (p = *p##_it_) != NULL; p##_it_++)                                        \
-        if (p->kind == GCP_FULL_ORBIT)
+        if (p->kind == GCP_FULL_ORBIT && !p->newtonian)
 
 static inline int fo_is(const struct gcp_pusher_type *p, const char *name)
 {

@@ -63,6 +63,7 @@ Test(conformance, every_registry_entry_has_a_row)
         cr_expect_eq(r->kind, p->kind, "%s: kind %d, table %d", p->name, p->kind, r->kind);
         cr_expect_eq(r->order, p->order, "%s: order %d, table %d", p->name, p->order, r->order);
         cr_expect_eq(r->adaptive, p->adaptive, "%s: adaptive", p->name);
+        cr_expect_eq(r->newtonian, p->newtonian, "%s: newtonian", p->name);
         cr_expect_not_null(p->advance, "%s", p->name);
         cr_expect_eq(gcp_pusher_lookup(p->name), p, "%s: lookup", p->name);
         nm++;
@@ -325,7 +326,7 @@ static void check_order(const struct gcp_field *f, const struct model_row *r,
     const int gc = p->kind == GCP_GUIDING_CENTRE;
     const struct start s = make_start(f, r, gc);
     double xref[3], xe[3], ue[3], pp, e[3];
-    reference(f, &s, gc, xref);
+    reference(f, &s, gc, mr->newtonian, xref);
     const double floor_ = 2e-13 * (norm3(s.x) + s.scale);
     if (mr->adaptive) {
         const double tols[2] = {1e-6, 1e-9};

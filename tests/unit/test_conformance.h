@@ -39,6 +39,9 @@ struct method_row {
     enum gcp_pusher_kind kind;
     int adaptive;            /* takes a tolerance: convergence in tolerance, not dt */
     int energy_roundoff;     /* [bool] energy kept to round-off in a static pure-B field */
+    int newtonian;           /* [bool] full orbit, u = v (non-relativistic): the order is
+                                measured against the Newtonian reference (a relativistic one
+                                would show the model's error, O(v^2/c^2), as a floor) */
 };
 
 /* The energy column: every full-orbit kick here is a rotation of u in pure B
@@ -48,18 +51,19 @@ struct method_row {
  * (none of them is energy-exact: the Gauss-Legendre methods are symplectic,
  * bounded error; gc-midpoint-pphi keeps p_phi exactly, not H). */
 static const struct method_row methods[] = {
-    {"boris", 2, GCP_FULL_ORBIT, 0, 1},
-    {"boris-zu", 2, GCP_FULL_ORBIT, 0, 1},
-    {"vay", 2, GCP_FULL_ORBIT, 0, 1},
-    {"higuera-cary", 2, GCP_FULL_ORBIT, 0, 1},
-    {"gc-rk4", 4, GCP_GUIDING_CENTRE, 0, 0},
-    {"gc-rk45", 4, GCP_GUIDING_CENTRE, 1, 0},
-    {"gc-rk8pd", 8, GCP_GUIDING_CENTRE, 1, 0},
-    {"gc-midpoint-pphi", 2, GCP_GUIDING_CENTRE, 0, 0},
-    {"gc-gl2", 2, GCP_GUIDING_CENTRE, 0, 0},
-    {"gc-gl4", 4, GCP_GUIDING_CENTRE, 0, 0},
-    {"gc-gl2-sundman", 2, GCP_GUIDING_CENTRE, 0, 0},
-    {"gc-gl4-sundman", 4, GCP_GUIDING_CENTRE, 0, 0},
+    {"boris", 2, GCP_FULL_ORBIT, 0, 1, 0},
+    {"boris-zu", 2, GCP_FULL_ORBIT, 0, 1, 0},
+    {"vay", 2, GCP_FULL_ORBIT, 0, 1, 0},
+    {"higuera-cary", 2, GCP_FULL_ORBIT, 0, 1, 0},
+    {"boris-nr", 2, GCP_FULL_ORBIT, 0, 1, 1},
+    {"gc-rk4", 4, GCP_GUIDING_CENTRE, 0, 0, 0},
+    {"gc-rk45", 4, GCP_GUIDING_CENTRE, 1, 0, 0},
+    {"gc-rk8pd", 8, GCP_GUIDING_CENTRE, 1, 0, 0},
+    {"gc-midpoint-pphi", 2, GCP_GUIDING_CENTRE, 0, 0, 0},
+    {"gc-gl2", 2, GCP_GUIDING_CENTRE, 0, 0, 0},
+    {"gc-gl4", 4, GCP_GUIDING_CENTRE, 0, 0, 0},
+    {"gc-gl2-sundman", 2, GCP_GUIDING_CENTRE, 0, 0, 0},
+    {"gc-gl4-sundman", 4, GCP_GUIDING_CENTRE, 0, 0, 0},
 };
 
 static const struct method_row *method_row_of(const struct gcp_pusher_type *p)
@@ -334,13 +338,15 @@ static struct start make_start(const struct gcp_field *f, const struct model_row
 
 /* Independent reference: GSL rk8pd at 1e-13 on the scaled equations
  * (lengths in s.scale, momenta in p0, time in tau), through no pusher.
- * Full orbit: dx/dt = u/gamma, du/dt = (q/m)(E + u x B / gamma).
+ * Full orbit: dx/dt = u/gamma, du/dt = (q/m)(E + u x B / gamma), gamma = 1
+ * (Newton's equations, u = v) for a method whose table row says newtonian.
  * Guiding centre: (dX/dt, dp_par/dt) = gcp_gc_rhs_at (kernels.h gcp_gc_rhs,
  * Cary & Brizard 2009). */
 struct ref_ctx {
     const struct gcp_field *f;
     const struct start *s;
     double L, P, tau;
+    int newtonian;
 };
 
 static int ref_fo(double t, const double y[], double dy[], void *vp)
@@ -352,7 +358,8 @@ static int ref_fo(double t, const double y[], double dy[], void *vp)
     memset(&fs, 0, sizeof fs);
     fs.need = GCP_NEED_B | GCP_NEED_E;
     if (gcp_field_eval(c->f, t * c->tau, x, &fs)) return GSL_EBADFUNC;
-    const double g = gcp_gamma_of_u(u[0], u[1], u[2]), qm = c->s->q / c->s->m;
+    const double g = c->newtonian ? 1.0 : gcp_gamma_of_u(u[0], u[1], u[2]);
+    const double qm = c->s->q / c->s->m;
     const double uxB[3] = {u[1] * fs.B[2] - u[2] * fs.B[1], u[2] * fs.B[0] - u[0] * fs.B[2],
                            u[0] * fs.B[1] - u[1] * fs.B[0]};
     for (int i = 0; i < 3; i++) {
@@ -375,12 +382,13 @@ static int ref_gc(double t, const double y[], double dy[], void *vp)
 }
 
 /* The reference end position [m]. */
-static void reference(const struct gcp_field *f, const struct start *s, int gc, double xe[3])
+static void reference(const struct gcp_field *f, const struct start *s, int gc, int newtonian,
+                      double xe[3])
 {
     /* momenta in the total momentum p = m |u| (GC p_par) or |u| (FO u); time
      * in scale / v: tau/(Lorb/v) (GC), rho/v = 1/omega_c (FO) */
     const double P = gc ? s->m * norm3(s->u) : norm3(s->u);
-    struct ref_ctx c = {f, s, s->scale, P, s->scale / s->v};
+    struct ref_ctx c = {f, s, s->scale, P, s->scale / s->v, newtonian};
     gsl_odeiv2_system sys = {gc ? ref_gc : ref_fo, NULL, gc ? 4u : 6u, &c};
     gsl_odeiv2_driver *d = gsl_odeiv2_driver_alloc_y_new(&sys, gsl_odeiv2_step_rk8pd, 1e-3,
                                                          1e-14, 1e-13);

@@ -116,6 +116,7 @@ static void check_kernel(const char *name, scalar_fn scalar, aos_fn aos, strided
 
 KERNEL_TEST_(gcp_push_boris)
 KERNEL_TEST_(gcp_push_boris_zu)
+KERNEL_TEST_(gcp_push_boris_nr)
 KERNEL_TEST_(gcp_push_vay)
 KERNEL_TEST_(gcp_push_higuera_cary)
 

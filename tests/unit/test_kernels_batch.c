@@ -34,6 +34,7 @@ static const struct {
 } kernels[] = {
     {"boris", gcp_push_boris, gcp_push_boris_batch},
     {"boris-zu", gcp_push_boris_zu, gcp_push_boris_zu_batch},
+    {"boris-nr", gcp_push_boris_nr, gcp_push_boris_nr_batch},
     {"vay", gcp_push_vay, gcp_push_vay_batch},
     {"higuera-cary", gcp_push_higuera_cary, gcp_push_higuera_cary_batch},
 };
@@ -161,7 +162,7 @@ Test(kernels_batch, header_batch_bit_identical_to_scalar)
 /* The pusher registry's kick (compiled in src/pushers/, another
  * translation unit with its own inlining and vectorisation decisions) is
  * the same batch function: bit-identical to the scalar kernel inlined
- * here.  Every registered full-orbit pusher must be one of the four. */
+ * here.  Every registered full-orbit pusher must be one of the table's. */
 Test(kernels_batch, registry_kick_bit_identical_to_scalar)
 {
     static struct inputs in;
@@ -242,11 +243,18 @@ Test(kernels_batch, boris_B_equals_boris_with_zero_E)
         bz[i] = (i % 9 == 0) ? 0.0 : 1.0 + r[3];
     }
     const double zero[64] = {0};
+    double wx[64], wy[64], wz[64], nx[64], ny[64], nz[64];
+    memcpy(wx, ux, sizeof wx), memcpy(wy, uy, sizeof wy), memcpy(wz, uz, sizeof wz);
+    memcpy(nx, ux, sizeof nx), memcpy(ny, uy, sizeof ny), memcpy(nz, uz, sizeof nz);
     for (int step = 0; step < 5; step++) {
         gcp_push_boris_B_batch(64, ux, uy, uz, bx, by, bz, q, m, 1e-6);
         gcp_push_boris_batch(64, vx, vy, vz, zero, zero, zero, bx, by, bz, q, m, 1e-6);
+        /* and the non-relativistic pair (boris-nr's kick_B and kick) */
+        gcp_push_boris_nr_B_batch(64, wx, wy, wz, bx, by, bz, q, m, 1e-6);
+        gcp_push_boris_nr_batch(64, nx, ny, nz, zero, zero, zero, bx, by, bz, q, m, 1e-6);
     }
     for (int i = 0; i < 64; i++) {
         cr_assert(ux[i] == vx[i] && uy[i] == vy[i] && uz[i] == vz[i], "lane %d differs", i);
+        cr_assert(wx[i] == nx[i] && wy[i] == ny[i] && wz[i] == nz[i], "nr: lane %d differs", i);
     }
 }
