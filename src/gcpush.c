@@ -18,6 +18,9 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include <mpi.h>
 
@@ -384,8 +387,27 @@ static void free_list(char **files, size_t n)
     free(files);
 }
 
+/* glibc returns a freed block of 128 KiB up (at first: the threshold then
+ * follows the largest freed) to the kernel, and trims the heap's top past
+ * 128 KiB free; the next allocation of that size is fresh pages again, each
+ * a fault that zeroes it (~16 us in a paravirtualised VM).  The output
+ * write allocates and frees a buffer per chunk and dataset (HDF5's chunk
+ * and deflate buffers, the rows' move): keeping freed memory in the heap up
+ * to blocks of 32 MiB (glibc's largest mmap threshold) and never trimming
+ * it below 1 GiB cut the flagship's faults from 10.6k to 8.0k and its CPU by
+ * 0.03-0.04 s per rank.  A batch program: peak memory is what counts, and
+ * memory freed before it is reused, not returned. */
+static void keep_freed_memory(void)
+{
+#ifdef __GLIBC__
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
+}
+
 int main(int argc, char **argv)
 {
+    keep_freed_memory();
     gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
     gcp_par_local_defaults(); /* all ranks on this node: no network probing (README) */
     MPI_Init(&argc, &argv);
@@ -581,6 +603,13 @@ int main(int argc, char **argv)
     if (me == 0 && !quiet && ctx.last_print > ctx.t0) progress(&ctx, 1);
     gcp_phase_mark("push");
     gcp_phase_busy(res.rank_cpu);
+    /* Each rank sorts its own rows before the barrier: a rank done early
+     * sorts while the last chunk is still pushed elsewhere, instead of
+     * after it (a sort that ends up unused, the run having failed or been
+     * stopped on another rank, only reorders rows a checkpoint takes in
+     * any order). */
+    const int sort_rc = rc == 0 && !stop_requested ? gcp_results_sort(&res) : 0;
+    gcp_phase_mark("sort");
     int64_t pushed, steps_run;
     MPI_Barrier(comm);
     gcp_phase_mark("idle"); /* waiting for the last chunk of another rank */
@@ -609,11 +638,11 @@ int main(int argc, char **argv)
         if (flags[2] && me == 0)
             fprintf(stderr, "gcpush: warning: a periodic checkpoint failed (%s)\n",
                     ctx.ckpt_err.code ? ctx.ckpt_err.msg : "on another rank");
-        rc = gcp_results_sort(&res);
+        rc = sort_rc;
         if (rc == 0) log_step_failures(sc, &res);
         int bad = rc != 0;
         MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-        gcp_phase_mark("sort");
+        gcp_phase_mark("sorted");
         if (!bad) rc = gcp_output_write(sc, &res, comm, &err);
         if (bad || rc) {
             if (me == 0) fprintf(stderr, "gcpush: %s\n", rc ? err.msg : "out of memory on a rank");

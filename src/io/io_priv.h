@@ -19,6 +19,11 @@ struct gcp_results_column {
 /* Fills c with the columns r has (trajectory columns only when r->S > 0). */
 size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c);
 
+/* Storage of `bytes` for result columns and the writer's buffers, freed
+ * with free(): from 2 MiB on aligned to 2 MiB and offered to the kernel
+ * for transparent huge pages (results.c). */
+void *gcp_io_alloc(size_t bytes);
+
 /* HDF5 attributes common to the output files (h5attr.c); loc and type are
  * hid_t values (int64_t here, so this header needs no hdf5.h).  A failure
  * sets *bad. */

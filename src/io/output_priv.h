@@ -30,6 +30,8 @@ struct writer {
     int64_t lo, hi;
     int *scount, *sdispl, *rcount, *rdispl; /* rows to / from each rank */
     int64_t *place;          /* received row j goes to row place[j] - lo */
+    void *in, *out;          /* a column's rows from other ranks, its block */
+    size_t in_cap, out_cap;  /* their bytes */
     const char *output;      /* for progress lines */
     double t0, last;         /* wall clock: write start, last progress line */
     int ndone;               /* datasets written */

@@ -116,29 +116,61 @@ void gcp_writer_spread_free(struct writer *w)
     free(w->rcount);
     free(w->rdispl);
     free(w->place);
+    free(w->in);
+    free(w->out);
+    w->in = w->out = NULL;
+    w->in_cap = w->out_cap = 0;
+}
+
+/* A buffer of the writer's (grown, kept across columns, freed in
+ * gcp_writer_spread_free): a fresh malloc per column of the trajectories
+ * is fresh pages, faulted in and zeroed each time (2 x 12 MB of them per
+ * rank and column on the flagship). */
+static void *scratch(void **buf, size_t *cap, size_t bytes)
+{
+    if (bytes > *cap) {
+        free(*buf);
+        *buf = gcp_io_alloc(bytes);
+        *cap = *buf ? bytes : 0;
+    }
+    return *buf;
 }
 
 /* This rank's block of rows [lo, hi) of a column whose rows (`row` bytes
- * each) are `data` in the rank's order: malloc'ed, or NULL on failure. */
+ * each) are `data` in the rank's order: the writer's buffer w->out (valid
+ * until the next column), or NULL on failure.  The rows that stay on this
+ * rank are copied straight to their place; only the others go through
+ * MPI (its copy to itself was a second pass over them). */
 static void *spread_column(struct writer *w, const void *data, size_t row)
 {
+    int me, P;
+    MPI_Comm_rank(w->comm, &me);
+    MPI_Comm_size(w->comm, &P);
     const int64_t nr = w->hi - w->lo;
-    char *in = malloc((size_t)(nr ? nr : 1) * row), *out = malloc((size_t)(nr ? nr : 1) * row);
+    const int64_t nin = nr - w->rcount[me]; /* rows from other ranks */
+    char *out = scratch(&w->out, &w->out_cap, (size_t)(nr ? nr : 1) * row);
+    char *in = scratch(&w->in, &w->in_cap, (size_t)(nin ? nin : 1) * row);
     int bad = !in || !out;
     MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, w->comm);
-    if (bad) {
-        free(in);
-        free(out);
-        return NULL;
-    }
+    if (bad) return NULL;
+    const int sc = w->scount[me], rc = w->rcount[me], sd = w->sdispl[me], rd = w->rdispl[me];
+    w->scount[me] = w->rcount[me] = 0;
+    /* the received rows without this rank's own: displacements shift down past them */
+    for (int k = me + 1; k < P; k++) w->rdispl[k] -= rc;
     MPI_Datatype t;
     MPI_Type_contiguous((int)row, MPI_BYTE, &t);
     MPI_Type_commit(&t);
     MPI_Alltoallv(data, w->scount, w->sdispl, t, in, w->rcount, w->rdispl, t, w->comm);
     MPI_Type_free(&t);
-    for (int64_t j = 0; j < nr; j++)
-        memcpy(out + (size_t)(w->place[j] - w->lo) * row, in + (size_t)j * row, row);
-    free(in);
+    for (int k = me + 1; k < P; k++) w->rdispl[k] += rc;
+    w->scount[me] = sc;
+    w->rcount[me] = rc;
+    /* received row j (rank order, own rows at rd .. rd + rc) goes to place[j] */
+    for (int64_t j = 0, q = 0; j < nr; j++) {
+        const int own = j >= rd && j < rd + rc;
+        const char *src = own ? (const char *)data + (size_t)(sd + (j - rd)) * row : in + (size_t)q++ * row;
+        memcpy(out + (size_t)(w->place[j] - w->lo) * row, src, row);
+    }
     return out;
 }
 
@@ -165,12 +197,10 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
 {
     hsize_t dims[3] = {(hsize_t)w->total, d1, d2};
     const hsize_t per_row = (rank > 1 ? d1 : 1) * (rank > 2 ? d2 : 1);
-    void *block = NULL;
     int64_t nrows = w->r->n;
     if (w->spread) {
-        block = spread_column(w, data, per_row * H5Tget_size(type));
-        if (!block) w->bad = 1;
-        data = block;
+        data = spread_column(w, data, per_row * H5Tget_size(type));
+        if (!data) w->bad = 1;
         nrows = w->hi - w->lo;
     }
     hid_t fspace = H5Screate_simple(rank, dims, NULL);
@@ -210,7 +240,6 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     H5Sclose(mspace);
     H5Sclose(fspace);
     if (dset >= 0) H5Dclose(dset);
-    free(block);
     write_progress(w, name);
 }
 
