@@ -24,7 +24,9 @@ t() { s=$(date +%s%N); mpirun -x GCPUSH_TIMING --oversubscribe --bind-to none -n
 t 1 > /dev/null   # warm caches
 t1=$(t 1); t2=$(t 2)
 awk -v a="$t1" -v b="$t2" 'BEGIN { printf "  1 rank %.2f s, 2 ranks %.2f s: speed-up %.2fx, efficiency %.0f%% (goal >= 1.8x)\n", a/1000, b/1000, a/b, 50*a/b }'
-cat "$TMP/np1.log" "$TMP/np2.log" | awk -v t1="$t1" -v t2="$t2" '
+# model T1_MS T2_MS LOG1 LOG2: the phase table and the CPU model from the timing lines
+model() {
+cat "$3" "$4" | awk -v t1="$1" -v t2="$2" '
 /^gcpush timing: rank / {
     split($4, rn, "/"); k = rn[2] "." rn[1]  # ranks.rank
     wall[k] = $6; cpu[k] = $9; busy[k] = $12
@@ -56,12 +58,20 @@ END {
     T1 = p0 + p1 + cpu["1.0"] - C["1.0", "push"]
     printf "  CPU model of the ranks: T1 %.2f s, T2 %.2f s (%.3f s outside the push + %.3f s push): speed-up %.2fx\n",
            T1, o + p, o, p, T1 / (o + p)
+    # Amdahl: T2 = S + (T1 - S) / 2, so S = 2 T2 - T1 is what does not shrink
+    # with ranks (start-up, exit, the move and per-dataset costs, imbalance);
+    # 1.8x on 2 ranks needs S <= T1 / 9
+    S = 2 * (o + p) - T1
+    printf "  serial part S = 2 T2 - T1 = %.3f s (%.0f%% of T1; 1.8x needs <= %.3f s)\n", S, 100 * S / T1, T1 / 9
 }'
+}
+model "$t1" "$t2" "$TMP/np1.log" "$TMP/np2.log"
 # The flagship itself (runs/dipole.run as shipped: 90 particles, 4000
 # trajectory samples each): a short run where start-up, the trajectory
 # write and the chunking (gcp_scene_chunk_size: 5 chunks of <= 32) weigh.
 sed "s|^file .*|file = $TMP/f.h5|" runs/dipole.run > "$TMP/f.run"
-f() { s=$(date +%s%N); mpirun --oversubscribe --bind-to none -np "$1" "$GCPUSH" --quiet --force "$TMP/f.run" 2>/dev/null; e=$(date +%s%N); echo $(( (e - s) / 1000000 )); }
+f() { s=$(date +%s%N); mpirun -x GCPUSH_TIMING --oversubscribe --bind-to none -np "$1" "$GCPUSH" --quiet --force "$TMP/f.run" 2> "$TMP/f$1.log"; e=$(date +%s%N); echo $(( (e - s) / 1000000 )); }
 f 1 > /dev/null
 f1=$(f 1); f2=$(f 2)
 awk -v a="$f1" -v b="$f2" 'BEGIN { printf "  runs/dipole.run as shipped: 1 rank %.2f s, 2 ranks %.2f s: speed-up %.2fx\n", a/1000, b/1000, a/b }'
+model "$f1" "$f2" "$TMP/f1.log" "$TMP/f2.log"
