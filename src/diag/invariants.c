@@ -51,8 +51,9 @@
 #include "invariants_priv.h"
 
 /* Event storage of cap events, the first n kept from old.  A run with
- * invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
- * half-bounce, a bounce row per bounce): tens of MB written once, where the
+ * invariants asked keeps ~1e5-1e6 events (a mu row per half-bounce, 32
+ * bytes in the scalar array since issue 12, a bounce row of 136 bytes per
+ * bounce): tens of MB written once, where the
  * first touch of each page is a fault that zeroes it (~16 us per 4 KiB page
  * in a paravirtualised VM: 0.33 s for 83 MB, a third of what the observer
  * cost a gc-rk4 run).  From 2 MiB on the storage is its own mapping,
@@ -65,10 +66,14 @@
  * tests/bench/observer.sh: perf put 18% of the push there). */
 #define EV_HUGE ((size_t)2 << 20)
 
-static size_t events_bytes(int64_t cap) { return (size_t)cap * sizeof(struct gcp_event); }
+/* cap events of sz bytes (struct gcp_event or struct gcp_scalar_event). */
+static size_t events_bytes(int64_t cap, size_t sz) { return (size_t)cap * sz; }
 /* Whether cap events live in a mapping of their own (else malloc). */
-static int events_mapped(int64_t cap) { return events_bytes(cap) >= EV_HUGE; }
-static size_t events_map_size(int64_t cap) { return (events_bytes(cap) + EV_HUGE - 1) / EV_HUGE * EV_HUGE; }
+static int events_mapped(int64_t cap, size_t sz) { return events_bytes(cap, sz) >= EV_HUGE; }
+static size_t events_map_size(int64_t cap, size_t sz)
+{
+    return (events_bytes(cap, sz) + EV_HUGE - 1) / EV_HUGE * EV_HUGE;
+}
 
 #if defined(__linux__) && defined(MREMAP_MAYMOVE) && defined(MREMAP_FIXED)
 /* A 2 MiB aligned range of len bytes (a multiple of 2 MiB), reserved
@@ -84,60 +89,71 @@ static void *aligned_range(size_t len, int prot)
     return r + head;
 }
 
-static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+static void *events_grow(void *old, int64_t n, int64_t ocap, int64_t cap, size_t sz)
 {
-    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
-    const size_t len = events_map_size(cap);
-    if (ocap && events_mapped(ocap)) {
+    if (!events_mapped(cap, sz)) return realloc(old, events_bytes(cap, sz));
+    const size_t len = events_map_size(cap, sz);
+    if (ocap && events_mapped(ocap, sz)) {
         void *to = aligned_range(len, PROT_NONE);
         if (!to) return NULL;
-        void *p = mremap(old, events_map_size(ocap), len, MREMAP_MAYMOVE | MREMAP_FIXED, to);
+        void *p = mremap(old, events_map_size(ocap, sz), len, MREMAP_MAYMOVE | MREMAP_FIXED, to);
         if (p == MAP_FAILED) {
             munmap(to, len);
             return NULL;
         }
         return p;
     }
-    struct gcp_event *p = aligned_range(len, PROT_READ | PROT_WRITE);
+    void *p = aligned_range(len, PROT_READ | PROT_WRITE);
     if (!p) return NULL;
 #ifdef MADV_HUGEPAGE
     (void)madvise(p, len, MADV_HUGEPAGE); /* a hint: failure is harmless */
 #endif
-    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    if (n) memcpy(p, old, events_bytes(n, sz));
     free(old);
     return p;
 }
 
-static void events_release(struct gcp_event *e, int64_t cap)
+static void events_release(void *e, int64_t cap, size_t sz)
 {
-    if (e && events_mapped(cap)) munmap(e, events_map_size(cap));
+    if (e && events_mapped(cap, sz)) munmap(e, events_map_size(cap, sz));
     else free(e);
 }
 #else
 /* Elsewhere: 2 MiB aligned storage, copied on growth as realloc would. */
-static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+static void *events_grow(void *old, int64_t n, int64_t ocap, int64_t cap, size_t sz)
 {
     (void)ocap;
-    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
+    if (!events_mapped(cap, sz)) return realloc(old, events_bytes(cap, sz));
     void *p = NULL;
-    if (posix_memalign(&p, EV_HUGE, events_map_size(cap))) return NULL;
-    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    if (posix_memalign(&p, EV_HUGE, events_map_size(cap, sz))) return NULL;
+    if (n) memcpy(p, old, events_bytes(n, sz));
     free(old);
     return p;
 }
 
-static void events_release(struct gcp_event *e, int64_t cap)
+static void events_release(void *e, int64_t cap, size_t sz)
 {
-    (void)cap;
+    (void)cap, (void)sz;
     free(e);
 }
 #endif
 
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
+    if (gcp_event_scalar(e->kind)) {
+        if (ev->ns == ev->scap) {
+            const int64_t cap = ev->scap ? 2 * ev->scap : 256;
+            void *p = events_grow(ev->s, ev->ns, ev->scap, cap, sizeof *ev->s);
+            if (!p) return GCP_ERR_NOMEM;
+            ev->s = p;
+            ev->scap = cap;
+        }
+        ev->s[ev->ns++] = (struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]};
+        return 0;
+    }
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
-        struct gcp_event *p = events_grow(ev->e, ev->n, ev->cap, cap);
+        void *p = events_grow(ev->e, ev->n, ev->cap, cap, sizeof *ev->e);
         if (!p) return GCP_ERR_NOMEM;
         ev->e = p;
         ev->cap = cap;
@@ -146,9 +162,18 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
     return 0;
 }
 
+struct gcp_event gcp_events_get(const struct gcp_events *ev, int64_t k)
+{
+    if (k < ev->n) return ev->e[k];
+    const struct gcp_scalar_event *s = &ev->s[k - ev->n];
+    return (struct gcp_event){.id = s->id, .kind = s->kind, .status = s->status, .t = s->t,
+                              .v = {s->v}};
+}
+
 void gcp_events_free(struct gcp_events *ev)
 {
-    events_release(ev->e, ev->cap);
+    events_release(ev->e, ev->cap, sizeof *ev->e);
+    events_release(ev->s, ev->scap, sizeof *ev->s);
     memset(ev, 0, sizeof *ev);
 }
 
@@ -160,14 +185,30 @@ static int by_id_kind_t(const void *va, const void *vb)
     return (a->t > b->t) - (a->t < b->t);
 }
 
+static int by_id_kind_t_s(const void *va, const void *vb)
+{
+    const struct gcp_scalar_event *a = va, *b = vb;
+    if (a->id != b->id) return (a->id > b->id) - (a->id < b->id);
+    if (a->kind != b->kind) return (a->kind > b->kind) - (a->kind < b->kind);
+    return (a->t > b->t) - (a->t < b->t);
+}
+
 int gcp_events_sort(struct gcp_events *ev)
 {
-    if (ev->n < 2) return 0;
-    qsort(ev->e, (size_t)ev->n, sizeof *ev->e, by_id_kind_t);
-    int64_t w = 1;
-    for (int64_t i = 1; i < ev->n; i++)
-        if (by_id_kind_t(&ev->e[i], &ev->e[w - 1]) != 0) ev->e[w++] = ev->e[i];
-    ev->n = w;
+    if (ev->n >= 2) {
+        qsort(ev->e, (size_t)ev->n, sizeof *ev->e, by_id_kind_t);
+        int64_t w = 1;
+        for (int64_t i = 1; i < ev->n; i++)
+            if (by_id_kind_t(&ev->e[i], &ev->e[w - 1]) != 0) ev->e[w++] = ev->e[i];
+        ev->n = w;
+    }
+    if (ev->ns >= 2) {
+        qsort(ev->s, (size_t)ev->ns, sizeof *ev->s, by_id_kind_t_s);
+        int64_t w = 1;
+        for (int64_t i = 1; i < ev->ns; i++)
+            if (by_id_kind_t_s(&ev->s[i], &ev->s[w - 1]) != 0) ev->s[w++] = ev->s[i];
+        ev->ns = w;
+    }
     return 0;
 }
 

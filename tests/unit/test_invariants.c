@@ -145,11 +145,24 @@ static struct start gc_start(double L, double a, double W, double m)
     return s;
 }
 
-/* Events of kind k and particle id, in time order (ev sorted first). */
+/* Events of kind k and particle id, in time order (ev sorted first).  The
+ * scalar kinds (mu, energy, p_phi: ev->s) are widened into a buffer that
+ * the next call of a scalar kind overwrites. */
 static int64_t select_events(const struct gcp_events *ev, int kind, int64_t id,
                              const struct gcp_event **out, int64_t max)
 {
+    static struct gcp_event wide[256];
     int64_t n = 0;
+    if (gcp_event_scalar(kind)) {
+        cr_assert(max <= 256);
+        for (int64_t k = 0; k < ev->ns && n < max; k++)
+            if (ev->s[k].kind == kind && ev->s[k].id == id) {
+                wide[n] = gcp_events_get(ev, ev->n + k);
+                out[n] = &wide[n];
+                n++;
+            }
+        return n;
+    }
     for (int64_t k = 0; k < ev->n && n < max; k++)
         if (ev->e[k].kind == kind && ev->e[k].id == id) out[n++] = &ev->e[k];
     return n;
