@@ -167,18 +167,41 @@ struct gcp_event {
     double v[GCP_EVENT_NV];
 };
 
-/* A growable event list. */
+/* An event of one value (kinds GCP_EVENT_MU, ENERGY, PPHI: gcp_event_scalar):
+ * its v[0]; the rest of a struct gcp_event of these kinds is zero. */
+struct gcp_scalar_event {
+    int64_t id;
+    int32_t kind, status;
+    double t, v;
+};
+
+/* Whether events of this kind are kept as struct gcp_scalar_event. */
+static inline int gcp_event_scalar(int32_t kind)
+{
+    return kind == GCP_EVENT_MU || kind == GCP_EVENT_ENERGY || kind == GCP_EVENT_PPHI;
+}
+
+/* A growable event list: e[0 .. n) the events of every kind but the
+ * scalar ones, s[0 .. ns) those (32 bytes each instead of 136: two of three
+ * rows of a run that asks for mu, whose storage -- the kernel's zeroing
+ * of fresh pages -- was a third of what the observer cost; issue 12).
+ * Either array on its own is in push order, or sorted (gcp_events_sort). */
 struct gcp_events {
     int64_t n, cap;
     struct gcp_event *e;
+    int64_t ns, scap;
+    struct gcp_scalar_event *s;
 };
 
-/* Appends e; 0 or GCP_ERR_NOMEM. */
+/* Appends e (to s where its kind is scalar); 0 or GCP_ERR_NOMEM. */
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e);
+/* The k-th event of the list as a struct gcp_event: e[k] for k < n, then
+ * s[k - n] (k < n + ns). */
+struct gcp_event gcp_events_get(const struct gcp_events *ev, int64_t k);
 void gcp_events_free(struct gcp_events *ev);
-/* Sorts by (id, kind, t) and drops exact repeats of (id, kind, t) (a
- * particle pushed twice, e.g. once per checkpoint file, gives identical
- * events). */
+/* Sorts each array by (id, kind, t) and drops exact repeats of (id, kind,
+ * t) (a particle pushed twice, e.g. once per checkpoint file, gives
+ * identical events). */
 int gcp_events_sort(struct gcp_events *ev);
 
 struct gcp_observer_opts {

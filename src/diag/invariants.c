@@ -51,8 +51,9 @@
 #include "invariants_priv.h"
 
 /* Event storage of cap events, the first n kept from old.  A run with
- * invariants asked keeps ~1e5-1e6 events of 136 bytes (a mu row per
- * half-bounce, a bounce row per bounce): tens of MB written once, where the
+ * invariants asked keeps ~1e5-1e6 events (a mu row per half-bounce, 32
+ * bytes in the scalar array since issue 12, a bounce row of 136 bytes per
+ * bounce): tens of MB written once, where the
  * first touch of each page is a fault that zeroes it (~16 us per 4 KiB page
  * in a paravirtualised VM: 0.33 s for 83 MB, a third of what the observer
  * cost a gc-rk4 run).  From 2 MiB on the storage is its own mapping,
@@ -65,10 +66,14 @@
  * tests/bench/observer.sh: perf put 18% of the push there). */
 #define EV_HUGE ((size_t)2 << 20)
 
-static size_t events_bytes(int64_t cap) { return (size_t)cap * sizeof(struct gcp_event); }
+/* cap events of sz bytes (struct gcp_event or struct gcp_scalar_event). */
+static size_t events_bytes(int64_t cap, size_t sz) { return (size_t)cap * sz; }
 /* Whether cap events live in a mapping of their own (else malloc). */
-static int events_mapped(int64_t cap) { return events_bytes(cap) >= EV_HUGE; }
-static size_t events_map_size(int64_t cap) { return (events_bytes(cap) + EV_HUGE - 1) / EV_HUGE * EV_HUGE; }
+static int events_mapped(int64_t cap, size_t sz) { return events_bytes(cap, sz) >= EV_HUGE; }
+static size_t events_map_size(int64_t cap, size_t sz)
+{
+    return (events_bytes(cap, sz) + EV_HUGE - 1) / EV_HUGE * EV_HUGE;
+}
 
 #if defined(__linux__) && defined(MREMAP_MAYMOVE) && defined(MREMAP_FIXED)
 /* A 2 MiB aligned range of len bytes (a multiple of 2 MiB), reserved
@@ -84,60 +89,71 @@ static void *aligned_range(size_t len, int prot)
     return r + head;
 }
 
-static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+static void *events_grow(void *old, int64_t n, int64_t ocap, int64_t cap, size_t sz)
 {
-    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
-    const size_t len = events_map_size(cap);
-    if (ocap && events_mapped(ocap)) {
+    if (!events_mapped(cap, sz)) return realloc(old, events_bytes(cap, sz));
+    const size_t len = events_map_size(cap, sz);
+    if (ocap && events_mapped(ocap, sz)) {
         void *to = aligned_range(len, PROT_NONE);
         if (!to) return NULL;
-        void *p = mremap(old, events_map_size(ocap), len, MREMAP_MAYMOVE | MREMAP_FIXED, to);
+        void *p = mremap(old, events_map_size(ocap, sz), len, MREMAP_MAYMOVE | MREMAP_FIXED, to);
         if (p == MAP_FAILED) {
             munmap(to, len);
             return NULL;
         }
         return p;
     }
-    struct gcp_event *p = aligned_range(len, PROT_READ | PROT_WRITE);
+    void *p = aligned_range(len, PROT_READ | PROT_WRITE);
     if (!p) return NULL;
 #ifdef MADV_HUGEPAGE
     (void)madvise(p, len, MADV_HUGEPAGE); /* a hint: failure is harmless */
 #endif
-    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    if (n) memcpy(p, old, events_bytes(n, sz));
     free(old);
     return p;
 }
 
-static void events_release(struct gcp_event *e, int64_t cap)
+static void events_release(void *e, int64_t cap, size_t sz)
 {
-    if (e && events_mapped(cap)) munmap(e, events_map_size(cap));
+    if (e && events_mapped(cap, sz)) munmap(e, events_map_size(cap, sz));
     else free(e);
 }
 #else
 /* Elsewhere: 2 MiB aligned storage, copied on growth as realloc would. */
-static struct gcp_event *events_grow(struct gcp_event *old, int64_t n, int64_t ocap, int64_t cap)
+static void *events_grow(void *old, int64_t n, int64_t ocap, int64_t cap, size_t sz)
 {
     (void)ocap;
-    if (!events_mapped(cap)) return realloc(old, events_bytes(cap));
+    if (!events_mapped(cap, sz)) return realloc(old, events_bytes(cap, sz));
     void *p = NULL;
-    if (posix_memalign(&p, EV_HUGE, events_map_size(cap))) return NULL;
-    if (n) memcpy(p, old, (size_t)n * sizeof *old);
+    if (posix_memalign(&p, EV_HUGE, events_map_size(cap, sz))) return NULL;
+    if (n) memcpy(p, old, events_bytes(n, sz));
     free(old);
     return p;
 }
 
-static void events_release(struct gcp_event *e, int64_t cap)
+static void events_release(void *e, int64_t cap, size_t sz)
 {
-    (void)cap;
+    (void)cap, (void)sz;
     free(e);
 }
 #endif
 
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
+    if (gcp_event_scalar(e->kind)) {
+        if (ev->ns == ev->scap) {
+            const int64_t cap = ev->scap ? 2 * ev->scap : 256;
+            void *p = events_grow(ev->s, ev->ns, ev->scap, cap, sizeof *ev->s);
+            if (!p) return GCP_ERR_NOMEM;
+            ev->s = p;
+            ev->scap = cap;
+        }
+        ev->s[ev->ns++] = (struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]};
+        return 0;
+    }
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
-        struct gcp_event *p = events_grow(ev->e, ev->n, ev->cap, cap);
+        void *p = events_grow(ev->e, ev->n, ev->cap, cap, sizeof *ev->e);
         if (!p) return GCP_ERR_NOMEM;
         ev->e = p;
         ev->cap = cap;
@@ -146,9 +162,18 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
     return 0;
 }
 
+struct gcp_event gcp_events_get(const struct gcp_events *ev, int64_t k)
+{
+    if (k < ev->n) return ev->e[k];
+    const struct gcp_scalar_event *s = &ev->s[k - ev->n];
+    return (struct gcp_event){.id = s->id, .kind = s->kind, .status = s->status, .t = s->t,
+                              .v = {s->v}};
+}
+
 void gcp_events_free(struct gcp_events *ev)
 {
-    events_release(ev->e, ev->cap);
+    events_release(ev->e, ev->cap, sizeof *ev->e);
+    events_release(ev->s, ev->scap, sizeof *ev->s);
     memset(ev, 0, sizeof *ev);
 }
 
@@ -160,14 +185,30 @@ static int by_id_kind_t(const void *va, const void *vb)
     return (a->t > b->t) - (a->t < b->t);
 }
 
+static int by_id_kind_t_s(const void *va, const void *vb)
+{
+    const struct gcp_scalar_event *a = va, *b = vb;
+    if (a->id != b->id) return (a->id > b->id) - (a->id < b->id);
+    if (a->kind != b->kind) return (a->kind > b->kind) - (a->kind < b->kind);
+    return (a->t > b->t) - (a->t < b->t);
+}
+
 int gcp_events_sort(struct gcp_events *ev)
 {
-    if (ev->n < 2) return 0;
-    qsort(ev->e, (size_t)ev->n, sizeof *ev->e, by_id_kind_t);
-    int64_t w = 1;
-    for (int64_t i = 1; i < ev->n; i++)
-        if (by_id_kind_t(&ev->e[i], &ev->e[w - 1]) != 0) ev->e[w++] = ev->e[i];
-    ev->n = w;
+    if (ev->n >= 2) {
+        qsort(ev->e, (size_t)ev->n, sizeof *ev->e, by_id_kind_t);
+        int64_t w = 1;
+        for (int64_t i = 1; i < ev->n; i++)
+            if (by_id_kind_t(&ev->e[i], &ev->e[w - 1]) != 0) ev->e[w++] = ev->e[i];
+        ev->n = w;
+    }
+    if (ev->ns >= 2) {
+        qsort(ev->s, (size_t)ev->ns, sizeof *ev->s, by_id_kind_t_s);
+        int64_t w = 1;
+        for (int64_t i = 1; i < ev->ns; i++)
+            if (by_id_kind_t_s(&ev->s[i], &ev->s[w - 1]) != 0) ev->s[w++] = ev->s[i];
+        ev->ns = w;
+    }
     return 0;
 }
 
@@ -284,21 +325,47 @@ static void lagrange3(double t0, double t1, double t2, double t, double w[3])
     w[2] = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1));
 }
 
+/* The vector-potential quantities of a contour point at X, R = |X_perp|:
+ * psi = R A_phi, A_R, A_z. */
+static void contour_A(const struct gcp_observer *o, double t, const double X[3], double R,
+                      double *psi, double *AR, double *Az)
+{
+    double A[3];
+    if (gcp_gc_potential(o->f, t, X, A, NULL, NULL) || !(R > 0)) {
+        *psi = *AR = *Az = NAN;
+        return;
+    }
+    const double Aphi = (-A[0] * X[1] + A[1] * X[0]) / R;
+    *psi = R * Aphi;
+    *AR = (A[0] * X[0] + A[1] * X[1]) / R;
+    *Az = A[2];
+}
+
 /* Contour quantities of a position. */
 void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
                         double *R, double *psi, double *AR, double *Az)
 {
     *R = hypot(X[0], X[1]);
     *phi = atan2(X[1], X[0]);
-    double A[3];
-    if (gcp_gc_potential(o->f, t, X, A, NULL, NULL) || !(*R > 0)) {
-        *psi = *AR = *Az = NAN;
-        return;
+    contour_A(o, t, X, *R, psi, AR, Az);
+}
+
+/* The azimuth of b from that of a, wrapped to (-pi, pi]: atan2(a x b, a . b)
+ * (z components), which equals wrap(atan2(b) - atan2(a)) up to rounding.
+ * The three samples around an equator point are a step apart, a few 1e-4
+ * rad of drift azimuth at most, so it is almost always the series
+ * atan u = u - u^3/3 + u^5/5 - u^7/7 (u = cross/dot): for |u| < 1e-3 the
+ * first term left out, u^9/9, is < 1.2e-25 |u|, below the rounding of u;
+ * atan2 elsewhere.  It replaces two of the three atan2 per equator point
+ * (~30 ns each; issue 12). */
+static double azimuth_step(const double a[2], const double b[2])
+{
+    const double c = a[0] * b[1] - a[1] * b[0], d = a[0] * b[0] + a[1] * b[1];
+    if (d > 0 && fabs(c) < 1e-3 * d) {
+        const double u = c / d, u2 = u * u;
+        return u - u * u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0)));
     }
-    const double Aphi = (-A[0] * X[1] + A[1] * X[0]) / *R;
-    *psi = *R * Aphi;
-    *AR = (A[0] * X[0] + A[1] * X[1]) / *R;
-    *Az = A[2];
+    return atan2(c, d);
 }
 
 double gcp_obs_wrap_pi(double a)
@@ -389,12 +456,19 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
         gcp_obs_emit(o, L, &e);
     }
     if (o->want_drift) {
-        double phi[3], R[3], psi[3], AR[3], Az[3];
-        for (int k = 0; k < 3; k++)
-            gcp_obs_contour_of(o, s[k]->t, s[k]->X, &phi[k], &R[k], &psi[k], &AR[k], &Az[k]);
+        /* the azimuth of the middle sample, and the others' from it
+         * (azimuth_step); R = |X_perp| as a square root (hypot guards
+         * against overflow that a position in metres cannot reach) */
+        double dphi[3], R[3], psi[3], AR[3], Az[3];
+        const double phi1 = atan2(s[1]->X[1], s[1]->X[0]);
+        for (int k = 0; k < 3; k++) {
+            dphi[k] = k == 1 ? 0.0 : azimuth_step(s[1]->X, s[k]->X);
+            R[k] = sqrt(s[k]->X[0] * s[k]->X[0] + s[k]->X[1] * s[k]->X[1]);
+            contour_A(o, s[k]->t, s[k]->X, R[k], &psi[k], &AR[k], &Az[k]);
+        }
         struct cpoint P = {.t = te};
         for (int k = 0; k < 3; k++) {
-            const double ph = phi[1] + gcp_obs_wrap_pi(phi[k] - phi[1]);
+            const double ph = phi1 + dphi[k];
             P.phi += w[k] * ph;
             P.R += w[k] * R[k];
             P.z += w[k] * s[k]->X[2];

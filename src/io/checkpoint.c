@@ -43,8 +43,14 @@ int gcp_checkpoint_write(const struct gcp_scene *sc, struct gcp_results *r, int 
     const size_t nc = gcp_results_columns(r, c);
     for (size_t k = 0; k < nc && r->n; k++)
         bad |= put(fp, *c[k].data, (size_t)r->n * (size_t)c[k].per_row * c[k].elem);
-    bad |= put(fp, &r->ev.n, sizeof r->ev.n);
+    /* every event as a struct gcp_event (the scalar ones widened) */
+    const int64_t nev = r->ev.n + r->ev.ns;
+    bad |= put(fp, &nev, sizeof nev);
     if (r->ev.n) bad |= put(fp, r->ev.e, (size_t)r->ev.n * sizeof *r->ev.e);
+    for (int64_t k = r->ev.n; k < nev && !bad; k++) {
+        const struct gcp_event e = gcp_events_get(&r->ev, k);
+        bad |= put(fp, &e, sizeof e);
+    }
     bad |= fflush(fp) != 0;
     bad |= fclose(fp) != 0;
     if (bad || rename(tmp, path) != 0) {
@@ -272,7 +278,7 @@ void gcp_results_drop(struct gcp_results *r, const unsigned char *keep)
     }
     r->n = w;
     /* events follow their particles: keep those whose id is still held */
-    if (!r->ev.n) return;
+    if (!r->ev.n && !r->ev.ns) return;
     int64_t *ids = malloc((size_t)(w ? w : 1) * sizeof *ids);
     if (!ids) return;
     memcpy(ids, r->id, (size_t)w * sizeof *ids);
@@ -282,5 +288,10 @@ void gcp_results_drop(struct gcp_results *r, const unsigned char *keep)
         if (w && bsearch(&r->ev.e[k].id, ids, (size_t)w, sizeof *ids, cmp_i64))
             r->ev.e[we++] = r->ev.e[k];
     r->ev.n = we;
+    we = 0;
+    for (int64_t k = 0; k < r->ev.ns; k++)
+        if (w && bsearch(&r->ev.s[k].id, ids, (size_t)w, sizeof *ids, cmp_i64))
+            r->ev.s[we++] = r->ev.s[k];
+    r->ev.ns = we;
     free(ids);
 }

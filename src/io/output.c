@@ -252,7 +252,7 @@ static int64_t size_bound(const struct gcp_results *r, int64_t total, MPI_Comm c
     const size_t nc = gcp_results_columns((struct gcp_results *)r, c);
     int64_t row = 32 + 3 * 8; /* species, charge, mass, dt */
     for (size_t k = 0; k < nc; k++) row += c[k].per_row * (int64_t)c[k].elem;
-    int64_t ev = r->ev.n;
+    int64_t ev = r->ev.n + r->ev.ns;
     MPI_Allreduce(MPI_IN_PLACE, &ev, 1, MPI_INT64_T, MPI_SUM, comm);
     const double raw = (double)total * (double)row + (double)ev * (double)sizeof(struct gcp_event);
     return (int64_t)(raw * 1.02) + (4 << 20);

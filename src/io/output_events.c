@@ -33,9 +33,17 @@ static hid_t group(struct gcp_ev_writer *w, hid_t loc, const char *name)
 struct ev_sel {
     int64_t M;         /* rows in the file */
     int64_t n;         /* rows of this rank */
-    int64_t *idx;      /* this rank's events of the table (indices into r->ev.e) */
+    int64_t *idx;      /* this rank's events of the table (indices into r->ev.e, or
+                          r->ev.s where the kind is scalar) */
     int64_t *row;      /* their file rows (increasing) */
+    int scalar;        /* the kind's events are r->ev.s (gcp_event_scalar) */
 };
+
+/* The particle id of event k of a table. */
+static int64_t ev_id(const struct gcp_events *ev, int scalar, int64_t k)
+{
+    return scalar ? ev->s[k].id : ev->e[k].id;
+}
 
 static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev_sel *sel)
 {
@@ -43,19 +51,22 @@ static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev
     const int64_t N = w->total;
     memset(sel, 0, sizeof *sel);
     int64_t *cnt = calloc((size_t)(N ? N : 1), sizeof *cnt);
-    sel->idx = malloc((size_t)(r->ev.n ? r->ev.n : 1) * sizeof *sel->idx);
-    sel->row = malloc((size_t)(r->ev.n ? r->ev.n : 1) * sizeof *sel->row);
+    sel->scalar = gcp_event_scalar(kind);
+    const int64_t nev = sel->scalar ? r->ev.ns : r->ev.n;
+    sel->idx = malloc((size_t)(nev ? nev : 1) * sizeof *sel->idx);
+    sel->row = malloc((size_t)(nev ? nev : 1) * sizeof *sel->row);
     int bad = !cnt || !sel->idx || !sel->row;
     MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
     if (bad) {
         free(cnt);
         return -1;
     }
-    for (int64_t k = 0; k < r->ev.n; k++) {
-        const struct gcp_event *e = &r->ev.e[k];
-        if (e->kind != kind || e->id < 0 || e->id >= N) continue;
+    for (int64_t k = 0; k < nev; k++) {
+        const int64_t id = ev_id(&r->ev, sel->scalar, k);
+        const int32_t kd = sel->scalar ? r->ev.s[k].kind : r->ev.e[k].kind;
+        if (kd != kind || id < 0 || id >= N) continue;
         sel->idx[sel->n++] = k;
-        cnt[e->id]++;
+        cnt[id]++;
     }
     MPI_Allreduce(MPI_IN_PLACE, cnt, (int)N, MPI_INT64_T, MPI_SUM, comm);
     /* cnt -> first row of each particle */
@@ -66,7 +77,7 @@ static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev
         acc += c;
     }
     sel->M = acc;
-    for (int64_t j = 0; j < sel->n; j++) sel->row[j] = cnt[r->ev.e[sel->idx[j]].id]++;
+    for (int64_t j = 0; j < sel->n; j++) sel->row[j] = cnt[ev_id(&r->ev, sel->scalar, sel->idx[j])]++;
     free(cnt);
     return 0;
 }
@@ -140,8 +151,13 @@ void gcp_output_event_table(struct gcp_ev_writer *w, hid_t parent, const char *n
     MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
     if (!bad) {
         for (int64_t j = 0; j < sel.n; j++) {
-            const struct gcp_event *e = &r->ev.e[sel.idx[j]];
-            id[j] = e->id, st[j] = e->status, t[j] = e->t;
+            if (sel.scalar) {
+                const struct gcp_scalar_event *e = &r->ev.s[sel.idx[j]];
+                id[j] = e->id, st[j] = e->status, t[j] = e->t;
+            } else {
+                const struct gcp_event *e = &r->ev.e[sel.idx[j]];
+                id[j] = e->id, st[j] = e->status, t[j] = e->t;
+            }
         }
         write_ev_col(w, g, "id", H5T_NATIVE_INT64, 1, 0, 0, &sel, id, NULL);
         write_ev_col(w, g, "t", H5T_NATIVE_DOUBLE, 1, 0, 0, &sel, t, "s");
@@ -160,8 +176,11 @@ void gcp_output_event_table(struct gcp_ev_writer *w, hid_t parent, const char *n
                 }
                 continue;
             }
-            for (int64_t j = 0; j < sel.n; j++)
-                memcpy(&v[(size_t)j * per], &r->ev.e[sel.idx[j]].v[cols[c].slot], per * sizeof *v);
+            if (sel.scalar) /* one column, slot 0 */
+                for (int64_t j = 0; j < sel.n; j++) v[j] = r->ev.s[sel.idx[j]].v;
+            else
+                for (int64_t j = 0; j < sel.n; j++)
+                    memcpy(&v[(size_t)j * per], &r->ev.e[sel.idx[j]].v[cols[c].slot], per * sizeof *v);
             write_ev_col(w, g, cols[c].name, H5T_NATIVE_DOUBLE, cols[c].rank, cols[c].d1,
                          cols[c].d2, &sel, v, cols[c].units);
         }

@@ -203,8 +203,10 @@ int gcp_results_append(struct gcp_results *dst, const struct gcp_results *src)
     }
     dst->n += src->n;
     dst->rank_cpu += src->rank_cpu;
-    for (int64_t k = 0; k < src->ev.n; k++)
-        if (gcp_events_push(&dst->ev, &src->ev.e[k])) return GCP_ERR_NOMEM;
+    for (int64_t k = 0; k < src->ev.n + src->ev.ns; k++) {
+        const struct gcp_event e = gcp_events_get(&src->ev, k);
+        if (gcp_events_push(&dst->ev, &e)) return GCP_ERR_NOMEM;
+    }
     return 0;
 }
 

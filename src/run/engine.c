@@ -222,7 +222,7 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
     gcp_block_start(b, s->field, t0);
     if (hy) gcp_hybrid_begin(hy, b, s->field, t0, e->first);
     if (S) record(b, t0, &tc);
-    const int64_t events_before = res->ev.n;
+    const int64_t events_before = res->ev.n, scalars_before = res->ev.ns;
     if (obs) {
         /* cadence samples and the stream contour: every sample_every steps of this population */
         gcp_observer_set_sample_dt(obs, (double)s->sample_every * P->dt);
@@ -248,7 +248,7 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
     const struct gcp_sampler *smp = (S || obs || e->watch) ? &sampler : NULL;
     for (int64_t done = 0; done < P->nsteps && b->n_active > 0;) {
         if (stop && *stop) { /* drop the chunk: its rows and events were never complete */
-            res->ev.n = events_before;
+            res->ev.n = events_before, res->ev.ns = scalars_before;
             return 1;
         }
         opts.t0 = t0 + (double)done * P->dt;

@@ -142,9 +142,10 @@ static void jump_stats_of(double W, double L, double a_eq, int hybrid, struct ju
     /* the standard error of an RMS from n samples: var(r^2) / (4 n <r^2>^2) */
     js->rms = sqrt(m2);
     js->sigma = js->rms * sqrt((m4 / (m2 * m2) - 1.0) / (4.0 * (double)js->n));
-    for (int64_t k = 0; k < ev.n; k++) {
-        js->n_gc_mu += ev.e[k].kind == GCP_EVENT_MU && ev.e[k].status == GCP_MODE_GC;
-        js->n_switch += ev.e[k].kind == GCP_EVENT_BOUNCE && ev.e[k].status == GCP_MODE_GC;
+    for (int64_t k = 0; k < ev.n + ev.ns; k++) {
+        const struct gcp_event e = gcp_events_get(&ev, k);
+        js->n_gc_mu += e.kind == GCP_EVENT_MU && e.status == GCP_MODE_GC;
+        js->n_switch += e.kind == GCP_EVENT_BOUNCE && e.status == GCP_MODE_GC;
     }
     gcp_events_free(&ev);
     gcp_field_free(f);

@@ -145,11 +145,24 @@ static struct start gc_start(double L, double a, double W, double m)
     return s;
 }
 
-/* Events of kind k and particle id, in time order (ev sorted first). */
+/* Events of kind k and particle id, in time order (ev sorted first).  The
+ * scalar kinds (mu, energy, p_phi: ev->s) are widened into a buffer that
+ * the next call of a scalar kind overwrites. */
 static int64_t select_events(const struct gcp_events *ev, int kind, int64_t id,
                              const struct gcp_event **out, int64_t max)
 {
+    static struct gcp_event wide[256];
     int64_t n = 0;
+    if (gcp_event_scalar(kind)) {
+        cr_assert(max <= 256);
+        for (int64_t k = 0; k < ev->ns && n < max; k++)
+            if (ev->s[k].kind == kind && ev->s[k].id == id) {
+                wide[n] = gcp_events_get(ev, ev->n + k);
+                out[n] = &wide[n];
+                n++;
+            }
+        return n;
+    }
     for (int64_t k = 0; k < ev->n && n < max; k++)
         if (ev->e[k].kind == kind && ev->e[k].id == id) out[n++] = &ev->e[k];
     return n;
@@ -286,6 +299,67 @@ static const struct gcp_pusher_type synth_pusher = {.name = "synthetic",
                                                    .order = 2,
                                                    .kind = GCP_GUIDING_CENTRE,
                                                    .advance = synth_advance};
+
+/* The equator contour's azimuths (invariants.c, equator): the middle
+ * sample's by atan2, the two beside it from it by the series of
+ * atan(cross/dot) where the step turns the azimuth by less than 1e-3 rad,
+ * atan2 beyond.  With Td = 88.7 s and dt = Tb/157.3 a step turns it by
+ * 9.0e-4 rad (the series; the test below, at Td = 61.3 s, 1.3e-3 rad:
+ * atan2).  The equator points lie on phi = w_d t exactly, so the drift
+ * period is Td up to the rounding of the azimuths (~1e-16 rad, ~1e-14 s of
+ * crossing time) and the parabolic vertex of |B| (O(dt^4)): 1e-12 Td was
+ * met with ~1e-13 to spare by atan2 throughout; 1e-10 Td leaves room for
+ * the series' own rounding.  Mutations that fail it (tried): the steps'
+ * sign reversed (azimuth_step(s[k], s[1])), period off by 1.3e-5 Td; the
+ * steps set to 0, 6.4e-6 Td.  The series' cubic term dropped passes: its
+ * u^3/3 <= 3e-10 rad, weighted by w_0, w_2 < 1, moves a crossing by
+ * ~1e-11 Td -- each equator point's azimuth is the middle sample's atan2
+ * plus a step, so the steps' errors do not accumulate. */
+Test(invariants, equator_azimuth_series_drift_period)
+{
+    struct gcp_field *f = gcp_field_dipole_create(B0, 0, RE + H_ATM, 15.0 * RE);
+    const double m = GCP_M_PROTON, q = GCP_E_CHARGE, p = momentum(10 * MEV, m);
+    const double Ls[2] = {3.0, 5.0}, as[2] = {30 * DEG, 70 * DEG};
+    const double Tb = 2.0, Td = 88.7, dt = Tb / 157.3;
+    cr_assert(2 * GCP_PI / Td * dt < 1e-3 && 2 * GCP_PI / Td * dt > 0.8e-3);
+    struct gcp_block b;
+    cr_assert_eq(gcp_block_alloc(&b, 2), 0);
+    b.q = q, b.m = m;
+    for (size_t i = 0; i < 2; i++) {
+        const double y = sin(as[i]), Beq = B0 / pow(Ls[i], 3);
+        synth_lane[i] = (struct synth){Ls[i], mirror_lat(y), 2 * GCP_PI / Tb, -2 * GCP_PI / Td, p};
+        b.mu[i] = p * p * y * y / (2.0 * m * Beq);
+        synth_place(&b, i, 0.0);
+    }
+    struct gcp_observer *o;
+    const struct gcp_observer_opts oo = {.invariants = GCP_INV_L};
+    cr_assert_eq(gcp_observer_create(&o, 2, f, &synth_pusher, &oo), 0);
+    struct gcp_events ev = {0};
+    gcp_observer_begin(o, &b, 0.0, 0, &ev);
+    const struct gcp_sampler smp = {1, gcp_observer_sample, o};
+    const struct gcp_push_opts po = {.t0 = 0, .dt = dt, .nsteps = (int64_t)(2.3 * Td / dt)};
+    synth_advance(&b, f, &synth_pusher, &po, &smp);
+    cr_assert_eq(gcp_observer_end(o, &b), 0);
+    gcp_events_sort(&ev);
+    for (int64_t id = 0; id < 2; id++) {
+        const struct gcp_event *e[8];
+        const int64_t nd = select_events(&ev, GCP_EVENT_DRIFT, id, e, 8);
+        cr_assert_eq(nd, 2, "particle %lld: %lld drift orbits, not 2", (long long)id, (long long)nd);
+        for (int64_t k = 0; k < nd; k++) {
+            cr_log_info("series: L = %.1f: drift period - Td = %.2e s, L* - L = %.2e", Ls[id],
+                        e[k]->v[GCP_DRIFT_PERIOD] - Td, e[k]->v[GCP_DRIFT_LSTAR] - Ls[id]);
+            cr_assert_eq(e[k]->v[GCP_DRIFT_CONTOUR], GCP_CONTOUR_EQUATOR);
+            cr_assert(fabs(e[k]->v[GCP_DRIFT_PERIOD] - Td) < 1e-10 * Td, "period %.15g",
+                      e[k]->v[GCP_DRIFT_PERIOD]);
+            /* psi = R A_phi is constant on the shell: L* = L to round-off */
+            cr_assert(fabs(e[k]->v[GCP_DRIFT_LSTAR] - Ls[id]) < 1e-12 * Ls[id]);
+        }
+    }
+    gcp_events_free(&ev);
+    gcp_observer_free(o);
+    gcp_block_free(&b);
+    gcp_field_free(f);
+}
 
 Test(invariants, synthetic_orbit_exact_quantities)
 {

@@ -107,9 +107,12 @@ static void same_events(const char *what, const struct gcp_events *a, const stru
 {
     cr_assert_eq(a->n, b->n, "%s: %lld events per step, %lld fused", what, (long long)a->n,
                  (long long)b->n);
+    cr_assert_eq(a->ns, b->ns, "%s: %lld scalar events per step, %lld fused", what,
+                 (long long)a->ns, (long long)b->ns);
     int64_t kinds[16] = {0};
-    for (int64_t k = 0; k < a->n; k++) {
-        const struct gcp_event *x = &a->e[k], *y = &b->e[k];
+    for (int64_t k = 0; k < a->n + a->ns; k++) {
+        const struct gcp_event xe = gcp_events_get(a, k), ye = gcp_events_get(b, k);
+        const struct gcp_event *x = &xe, *y = &ye;
         cr_assert(memcmp(x, y, sizeof *x) == 0,
                   "%s: event %lld (id %lld kind %d t %.17g) differs from the fused one "
                   "(id %lld kind %d t %.17g, v0 %.17g vs %.17g)",
@@ -119,7 +122,7 @@ static void same_events(const char *what, const struct gcp_events *a, const stru
     }
     cr_log_info("%s: %lld events, bit-identical (mu %lld, bounce %lld, drift %lld, samples "
                 "%lld, loss %lld)",
-                what, (long long)a->n, (long long)kinds[GCP_EVENT_MU],
+                what, (long long)(a->n + a->ns), (long long)kinds[GCP_EVENT_MU],
                 (long long)kinds[GCP_EVENT_BOUNCE], (long long)kinds[GCP_EVENT_DRIFT],
                 (long long)kinds[GCP_EVENT_SAMPLE], (long long)kinds[GCP_EVENT_LOSS]);
 }

@@ -98,9 +98,9 @@ static void check_mu(const char *what, const struct gcp_field *f, double q, doub
     cr_assert_eq(b.status[0], GCP_ALIVE, "%s: status %d", what, b.status[0]);
     double lo = INFINITY, hi = -INFINITY, worst = 0;
     int n = 0;
-    for (int64_t k = 0; k < ev.n; k++) {
-        if (ev.e[k].kind != GCP_EVENT_MU) continue;
-        const double v = ev.e[k].v[0];
+    for (int64_t k = 0; k < ev.ns; k++) {
+        if (ev.s[k].kind != GCP_EVENT_MU) continue;
+        const double v = ev.s[k].v;
         lo = fmin(lo, v), hi = fmax(hi, v);
         worst = fmax(worst, fabs(v / mubar - 1));
         n++;

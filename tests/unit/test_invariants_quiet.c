@@ -86,7 +86,7 @@ static void run(int per_lane, int bump, struct gcp_events *ev, int64_t *passes)
 static int64_t count_kind(const struct gcp_events *ev, int kind)
 {
     int64_t n = 0;
-    for (int64_t k = 0; k < ev->n; k++) n += ev->e[k].kind == kind;
+    for (int64_t k = 0; k < ev->n + ev->ns; k++) n += gcp_events_get(ev, k).kind == kind;
     return n;
 }
 
@@ -110,10 +110,14 @@ Test(invariants_quiet, pass_equals_per_lane_bit_for_bit)
                 (long long)ns);
     cr_assert(nb > 100 && nm > 200 && nd >= 1 && nl == 1 && ns > 50);
     cr_assert_eq(a.n, r.n);
+    cr_assert_eq(a.ns, r.ns);
     cr_assert_eq(memcmp(a.e, r.e, (size_t)a.n * sizeof *a.e), 0,
                  "the quiet pass's events differ from the per-lane stream's");
-    /* one ulp of one lane's mu shows in the comparison */
+    cr_assert_eq(memcmp(a.s, r.s, (size_t)a.ns * sizeof *a.s), 0,
+                 "the quiet pass's mu rows differ from the per-lane stream's");
+    /* one ulp of one lane's mu shows in the comparison, in both arrays */
     cr_assert(x.n != r.n || memcmp(x.e, r.e, (size_t)r.n * sizeof *r.e) != 0);
+    cr_assert(x.ns != r.ns || memcmp(x.s, r.s, (size_t)r.ns * sizeof *r.s) != 0);
     gcp_events_free(&a);
     gcp_events_free(&r);
     gcp_events_free(&x);
@@ -122,22 +126,37 @@ Test(invariants_quiet, pass_equals_per_lane_bit_for_bit)
 Test(invariants_quiet, events_grow_in_place_keep_every_event)
 {
     struct gcp_events ev = {0};
-    /* 40 MB of events: growth from malloc into a mapping, then 4 mremaps */
+    /* 23 MB of full rows and 4 MB of scalar rows (kinds 2, 3, 4 of 0 .. 6):
+     * growth of each from malloc into a mapping, then mremaps */
     const int64_t n = 300000;
     for (int64_t k = 0; k < n; k++) {
         struct gcp_event e = {.id = k, .kind = (int32_t)(k % 7), .t = 0.5 * (double)k};
-        e.v[GCP_EVENT_NV - 1] = -(double)k;
+        e.v[gcp_event_scalar(e.kind) ? 0 : GCP_EVENT_NV - 1] = -(double)k;
         cr_assert_eq(gcp_events_push(&ev, &e), 0);
         if (ev.cap * (int64_t)sizeof e >= (int64_t)2 << 20)
             cr_assert_eq((uintptr_t)ev.e % ((uintptr_t)2 << 20), 0, "storage not 2 MiB aligned");
+        if (ev.scap * (int64_t)sizeof *ev.s >= (int64_t)2 << 20)
+            cr_assert_eq((uintptr_t)ev.s % ((uintptr_t)2 << 20), 0, "scalars not 2 MiB aligned");
     }
-    cr_assert_eq(ev.n, n);
-    int64_t bad = 0;
-    for (int64_t k = 0; k < n; k++)
-        bad += ev.e[k].id != k || ev.e[k].kind != (int32_t)(k % 7) || ev.e[k].t != 0.5 * (double)k ||
-               ev.e[k].v[GCP_EVENT_NV - 1] != -(double)k || ev.e[k].v[0] != 0.0;
+    cr_assert_eq(ev.n + ev.ns, n);
+    /* k % 7 in 2 .. 4: three of each 7, and of the last n % 7 those past 2 */
+    const int64_t r7 = n % 7;
+    cr_assert_eq(ev.ns, 3 * (n / 7) + (r7 > 2 ? (r7 - 2 < 3 ? r7 - 2 : 3) : 0));
+    int64_t bad = 0, ke = 0, ks = 0;
+    for (int64_t k = 0; k < n; k++) {
+        const int32_t kind = (int32_t)(k % 7);
+        if (gcp_event_scalar(kind)) {
+            const struct gcp_scalar_event *s = &ev.s[ks++];
+            bad += s->id != k || s->kind != kind || s->t != 0.5 * (double)k || s->v != -(double)k;
+            continue;
+        }
+        const struct gcp_event *e = &ev.e[ke++];
+        bad += e->id != k || e->kind != kind || e->t != 0.5 * (double)k ||
+               e->v[GCP_EVENT_NV - 1] != -(double)k || e->v[0] != 0.0;
+    }
     cr_assert_eq(bad, 0, "%lld events changed by growth", (long long)bad);
     gcp_events_free(&ev);
-    cr_assert_eq(ev.n, 0);
+    cr_assert_eq(ev.n + ev.ns, 0);
     cr_assert_null(ev.e);
+    cr_assert_null(ev.s);
 }
