@@ -169,10 +169,10 @@ static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl
     }
 }
 
-static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
+/* The table's part of the map (R, Z, A_eta and their derivatives). */
+static void num_map_table(const struct numchart *n, double s, double eta,
+                          struct gcp_polchart_pt *pt)
 {
-    const struct numview *v = ctx;
-    const struct numchart *n = v->t;
     const double x[2] = {s, wrap_eta(eta)};
     struct gcp_spl_out o[3];
     if (n->spl.kind == GCP_SPL_QUINTIC && n->spl.nd == 2) {
@@ -188,13 +188,42 @@ static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt
     pt->A_s = o[2].d[0], pt->A_e = o[2].d[1];
     pt->R_ss = o[0].dd[0][0], pt->R_se = o[0].dd[0][1], pt->R_ee = o[0].dd[1][1];
     pt->Z_ss = o[1].dd[0][0], pt->Z_se = o[1].dd[0][1], pt->Z_ee = o[1].dd[1][1];
-    double ps[6];
-    const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
+}
+
+/* psi's part, from psi and its R, Z derivatives at the point (ps), and the
+ * map's status (st: psi's). */
+static int num_map_psi(const struct numchart *n, double s, const double ps[6], int st,
+                       struct gcp_polchart_pt *pt)
+{
     pt->psi = ps[0];
     pt->psi_s = ps[1] * pt->R_s + ps[2] * pt->Z_s;
     pt->psi_e = ps[1] * pt->R_e + ps[2] * pt->Z_e;
     if (!(s >= 0.0 && s <= n->rho_max)) return GCP_LEFT_DOMAIN;
     return st ? GCP_LEFT_DOMAIN : 0;
+}
+
+static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
+{
+    const struct numview *v = ctx;
+    num_map_table(v->t, s, eta, pt);
+    double ps[6];
+    const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
+    return num_map_psi(v->t, s, ps, st, pt);
+}
+
+/* num_map and the field at the point, psi evaluated once for both
+ * (gcp_field_psi_B_RZ: in DIII-D the map's psi and the field's B are one
+ * spline locate and evaluation, not two). */
+static int num_map_field(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt,
+                         struct gcp_field_sample *fs)
+{
+    const struct numview *v = ctx;
+    num_map_table(v->t, s, eta, pt);
+    double ps[6];
+    int fst;
+    const int st = gcp_field_psi_B_RZ(v->f, pt->R, pt->Z, ps, fs, &fst);
+    const int mst = num_map_psi(v->t, s, ps, st, pt);
+    return mst ? mst : fst;
 }
 
 /* The distance from (R, Z) to the chart's point (rho, eta node j): R and Z
@@ -703,6 +732,7 @@ int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char
     v->t = t;
     c->pc.ctx = v;
     c->pc.map = num_map;
+    c->pc.map_field = num_map_field;
     c->pc.locate = num_locate;
     c->pc.s_max = t->rho_max;
     c->pc.what = "tabulated orthogonal (rho, eta), rho = sqrt(psi_N)";
