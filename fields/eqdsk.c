@@ -510,6 +510,7 @@ double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
  * (fields/flux_priv.h), from the same spline as eval. */
 #include "flux_priv.h"
+#include "spl_inline.h"
 
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6])
 {
@@ -546,10 +547,26 @@ int gcp_eqdsk_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out
         return gcp_eqdsk_psi_RZ2(f, R, Z, out);
     }
     const double p[2] = {R, Z};
-    struct gcp_spl_loc loc;
     struct gcp_spl_out o;
-    const int outside = gcp_spl_locate(&e->psi, p, 2, &loc);
-    gcp_spl_eval(&e->psi, &loc, 0, 2, &o);
+    int outside;
+    if (e->psi.kind == GCP_SPL_SEPTIC) {
+        /* gcp_spl_locate and gcp_spl_eval's septic path inline (the same numbers) */
+        double w[2][8], dw[2][8], ddw[2][8];
+        size_t base = 0, off;
+        double t;
+        outside = 0;
+        for (int a = 0; a < 2; a++) {
+            outside |= gcp_spl_cell(&e->psi, a, p[a], &off, &t);
+            base += off;
+            gcp_spl_w7(t, e->psi.inv_h[a], 2, w[a], dw[a], ddw[a]);
+        }
+        gcp_spl2_eval8(e->psi.coef[0] + base, e->psi.stride[1], w[0], dw[0], ddw[0], w[1], dw[1],
+                       ddw[1], 2, &o);
+    } else {
+        struct gcp_spl_loc loc;
+        outside = gcp_spl_locate(&e->psi, p, 2, &loc);
+        gcp_spl_eval(&e->psi, &loc, 0, 2, &o);
+    }
     const double sp = e->s_pol;
     out[0] = sp * o.f;
     out[1] = sp * o.d[0];
