@@ -381,6 +381,30 @@ static inline void eqdsk_F(const struct eqdsk_params *e, double psi, double Z, d
     *dF = du * scale / e->dpsi;
 }
 
+/* B (and grad B with grad) at R, Z from psi's spline output o there (order
+ * 2 with grad, else 1), with the cylindrical frame (c, sn) of the point. */
+static inline void eqdsk_B_of(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R,
+                              double Z, double c, double sn, int grad, struct gcp_field_sample *s)
+{
+    double F, dF;
+    eqdsk_F(e, o->f, Z, &F, &dF);
+    const double iR = 1.0 / R, sp = e->s_pol, st = e->s_tor;
+    double b[3], dR[3] = {0}, dZ[3] = {0};
+    b[0] = -sp * o->d[1] * iR;
+    b[1] = st * F * iR;
+    b[2] = sp * o->d[0] * iR;
+    if (grad) {
+        dR[0] = -sp * (o->dd[0][1] - o->d[1] * iR) * iR;
+        dZ[0] = -sp * o->dd[1][1] * iR;
+        dR[1] = st * (dF * o->d[0] - F * iR) * iR;
+        dZ[1] = st * dF * o->d[1] * iR;
+        dR[2] = sp * (o->dd[0][0] - o->d[0] * iR) * iR;
+        dZ[2] = sp * o->dd[0][1] * iR;
+    }
+    gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);
+    if (s->need & GCP_NEED_E) s->E[0] = s->E[1] = s->E[2] = 0.0;
+}
+
 static int eqdsk_eval(const struct gcp_field *f, double t, const double x[3],
                       struct gcp_field_sample *s)
 {
@@ -394,23 +418,7 @@ static int eqdsk_eval(const struct gcp_field *f, double t, const double x[3],
     struct gcp_spl_out o;
     const int out = gcp_spl_locate(&e->psi, p, grad ? 2 : 1, &loc);
     gcp_spl_eval(&e->psi, &loc, 0, grad ? 2 : 1, &o);
-    double F, dF;
-    eqdsk_F(e, o.f, x[2], &F, &dF);
-    const double iR = 1.0 / R, sp = e->s_pol, st = e->s_tor;
-    double b[3], dR[3] = {0}, dZ[3] = {0};
-    b[0] = -sp * o.d[1] * iR;
-    b[1] = st * F * iR;
-    b[2] = sp * o.d[0] * iR;
-    if (grad) {
-        dR[0] = -sp * (o.dd[0][1] - o.d[1] * iR) * iR;
-        dZ[0] = -sp * o.dd[1][1] * iR;
-        dR[1] = st * (dF * o.d[0] - F * iR) * iR;
-        dZ[1] = st * dF * o.d[1] * iR;
-        dR[2] = sp * (o.dd[0][0] - o.d[0] * iR) * iR;
-        dZ[2] = sp * o.dd[0][1] * iR;
-    }
-    gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);
-    if (s->need & GCP_NEED_E) s->E[0] = s->E[1] = s->E[2] = 0.0;
+    eqdsk_B_of(e, &o, R, x[2], c, sn, grad, s);
     return out ? GCP_LEFT_GRID : 0;
 }
 
@@ -502,6 +510,7 @@ double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
  * (fields/flux_priv.h), from the same spline as eval. */
 #include "flux_priv.h"
+#include "spl_inline.h"
 
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6])
 {
@@ -519,6 +528,56 @@ int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[
     out[4] = sp * o.dd[0][1];
     out[5] = sp * o.dd[1][1];
     return outside ? GCP_LEFT_GRID : 0;
+}
+
+/* gcp_eqdsk_psi_RZ2 and eqdsk_eval at (R, 0, Z) with B and grad B from one
+ * locate and evaluation of psi (the flux chart's, fields/flux_priv.h): the
+ * same spline output feeds both, so the same numbers as the two calls.
+ * Below Rmin eqdsk_eval floors R and psi_RZ2 does not: the two calls. */
+int gcp_eqdsk_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out[6],
+                       struct gcp_field_sample *s, int *fst)
+{
+    const struct eqdsk_params *e = f->params;
+    double c, sn;
+    const double Rf = gcp_axi_R(R, 0.0, e->Rmin, &c, &sn);
+    if (Rf != R) {
+        const double X[3] = {R, 0.0, Z};
+        s->need = GCP_NEED_B | GCP_NEED_GRADB;
+        *fst = eqdsk_eval(f, 0.0, X, s);
+        return gcp_eqdsk_psi_RZ2(f, R, Z, out);
+    }
+    const double p[2] = {R, Z};
+    struct gcp_spl_out o;
+    int outside;
+    if (e->psi.kind == GCP_SPL_SEPTIC) {
+        /* gcp_spl_locate and gcp_spl_eval's septic path inline (the same numbers) */
+        double w[2][8], dw[2][8], ddw[2][8];
+        size_t base = 0, off;
+        double t;
+        outside = 0;
+        for (int a = 0; a < 2; a++) {
+            outside |= gcp_spl_cell(&e->psi, a, p[a], &off, &t);
+            base += off;
+            gcp_spl_w7(t, e->psi.inv_h[a], 2, w[a], dw[a], ddw[a]);
+        }
+        gcp_spl2_eval8(e->psi.coef[0] + base, e->psi.stride[1], w[0], dw[0], ddw[0], w[1], dw[1],
+                       ddw[1], 2, &o);
+    } else {
+        struct gcp_spl_loc loc;
+        outside = gcp_spl_locate(&e->psi, p, 2, &loc);
+        gcp_spl_eval(&e->psi, &loc, 0, 2, &o);
+    }
+    const double sp = e->s_pol;
+    out[0] = sp * o.f;
+    out[1] = sp * o.d[0];
+    out[2] = sp * o.d[1];
+    out[3] = sp * o.dd[0][0];
+    out[4] = sp * o.dd[0][1];
+    out[5] = sp * o.dd[1][1];
+    s->need = GCP_NEED_B | GCP_NEED_GRADB;
+    eqdsk_B_of(e, &o, R, Z, c, sn, 1, s);
+    *fst = outside ? GCP_LEFT_GRID : 0;
+    return *fst;
 }
 
 /* The file's magnetic axis and boundary flux (rmaxis, zmaxis, sibry). */

@@ -15,6 +15,16 @@ int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6
     return GCP_ERR_STATE;
 }
 
+int gcp_field_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out[6],
+                       struct gcp_field_sample *s, int *fst)
+{
+    if (f->type == &gcp_field_eqdsk) return gcp_eqdsk_psi_B_RZ(f, R, Z, out, s, fst);
+    const double X[3] = {R, 0.0, Z};
+    s->need = GCP_NEED_B | GCP_NEED_GRADB;
+    *fst = gcp_field_eval(f, 0.0, X, s);
+    return gcp_field_psi_RZ(f, R, Z, out);
+}
+
 int gcp_field_psi_continuity(const struct gcp_field *f)
 {
     if (f->type == &gcp_field_tokamak) return GCP_PSI_ANALYTIC;

@@ -18,6 +18,14 @@
  * still finite), or GCP_ERR_STATE for a model without a flux function. */
 int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
 
+/* gcp_field_psi_RZ and gcp_field_eval of B and grad B at (R, 0, Z)
+ * together (s->need set here): the same numbers as the two calls, from one
+ * evaluation of psi where the model's B comes from its psi (G-EQDSK: one
+ * spline locate and evaluation instead of two), else the two calls.
+ * Returns psi's status, *fst the field's. */
+int gcp_field_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out[6],
+                       struct gcp_field_sample *s, int *fst);
+
 /* k such that the model's psi is C^k (its derivatives up to k continuous):
  * 2 for a grid's bicubic psi, 6 for G-EQDSK's septic spline,
  * GCP_PSI_ANALYTIC for closed forms; 0 for a model without psi.  Tables
@@ -55,6 +63,11 @@ struct gcp_polchart {
     int (*map)(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt);
     /* (R, Z) -> (s, eta), eta in (-pi, pi].  0 or GCP_LEFT_DOMAIN. */
     int (*locate)(const void *ctx, double R, double Z, double *s, double *eta);
+    /* Optional (NULL: map, then gcp_field_eval): map with the field's B and
+     * grad B at the point into *fs (the same numbers), the field evaluated
+     * with psi.  Returns map's status, or the field's where map's is 0. */
+    int (*map_field)(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt,
+                     struct gcp_field_sample *fs);
     double s_max;     /* [s-unit] edge of the chart */
     const char *what; /* "(r, theta) about the magnetic axis", for messages */
 };
@@ -67,6 +80,8 @@ int gcp_tokamak_psi_RZ(const struct gcp_field *f, double R, double Z, double out
 int gcp_tokamak_polchart(const struct gcp_field *f, struct gcp_polchart *out);
 int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6]);
+int gcp_eqdsk_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out[6],
+                       struct gcp_field_sample *s, int *fst);
 int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 int gcp_eqdsk_psi_continuity(const struct gcp_field *f);
 int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);

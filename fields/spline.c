@@ -9,6 +9,7 @@
 #include <gsl/gsl_linalg.h>
 
 #include "grid_priv.h"
+#include "spl_inline.h"
 
 /* ---- spline core -------------------------------------------------------- */
 
@@ -294,18 +295,10 @@ int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct g
     int out = 0;
     size_t base = 0;
     for (int a = 0; a < s->nd; a++) {
-        double u = (x[a] - s->x0[a]) * s->inv_h[a];
-        if (!(u >= 0.0)) { /* also NaN */
-            out = 1;
-            u = 0.0;
-        } else if (u > s->umax[a]) {
-            out = 1;
-            u = s->umax[a];
-        }
-        size_t i = (size_t)u;
-        if (i > s->n[a] - 2) i = s->n[a] - 2;
-        const double t = u - (double)i;
-        base += i * s->stride[a];
+        size_t off;
+        double t;
+        out |= gcp_spl_cell(s, a, x[a], &off, &t);
+        base += off;
         double *w = loc->w[a], *dw = loc->dw[a], *ddw = loc->ddw[a];
         const double ih = s->inv_h[a];
         if (s->kind == GCP_SPL_CUBIC) {
@@ -328,83 +321,9 @@ int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct g
                 ddw[3] = t * ih2;
             }
         } else if (s->kind == GCP_SPL_QUINTIC) {
-            /* the uniform quintic B-spline's six pieces on [0, 1], times 120 */
-            const double t2 = t * t, t3 = t2 * t, t4 = t3 * t, t5 = t4 * t, omt = 1.0 - t;
-            const double o2 = omt * omt, o4 = o2 * o2, c = 1.0 / 120.0;
-            w[0] = c * o4 * omt;
-            w[1] = c * (5 * t5 - 20 * t4 + 20 * t3 + 20 * t2 - 50 * t + 26);
-            w[2] = c * (-10 * t5 + 30 * t4 - 60 * t2 + 66);
-            w[3] = c * (10 * t5 - 20 * t4 - 20 * t3 + 20 * t2 + 50 * t + 26);
-            w[4] = c * (-5 * t5 + 5 * t4 + 10 * t3 + 10 * t2 + 5 * t + 1);
-            w[5] = c * t5;
-            if (order >= 1) {
-                const double ci = c * ih;
-                dw[0] = -5 * ci * o4;
-                dw[1] = ci * (25 * t4 - 80 * t3 + 60 * t2 + 40 * t - 50);
-                dw[2] = ci * (-50 * t4 + 120 * t3 - 120 * t);
-                dw[3] = ci * (50 * t4 - 80 * t3 - 60 * t2 + 40 * t + 50);
-                dw[4] = ci * (-25 * t4 + 20 * t3 + 30 * t2 + 20 * t + 5);
-                dw[5] = 5 * ci * t4;
-            }
-            if (order >= 2) {
-                const double ci2 = c * ih * ih;
-                ddw[0] = 20 * ci2 * o2 * omt;
-                ddw[1] = ci2 * (100 * t3 - 240 * t2 + 120 * t + 40);
-                ddw[2] = ci2 * (-200 * t3 + 360 * t2 - 120);
-                ddw[3] = ci2 * (200 * t3 - 240 * t2 - 120 * t + 40);
-                ddw[4] = ci2 * (-100 * t3 + 60 * t2 + 60 * t + 20);
-                ddw[5] = 20 * ci2 * t3;
-            }
+            gcp_spl_w5(t, ih, order, w, dw, ddw);
         } else if (s->kind == GCP_SPL_SEPTIC) {
-            /* the uniform septic B-spline's eight pieces on [0, 1], times
-             * 5040: P[k][m] is the coefficient of t^k in piece m, which
-             * multiplies c_{i-3+m} (B_7 from its truncated-power form, e.g.
-             * de Boor, A Practical Guide to Splines, ch. IX); P1, P2 those
-             * of the first and second derivatives.  Horner with the eight
-             * pieces side by side (each lane in a fixed order: the loop
-             * over m vectorises). */
-            static const double P[8][8] = {
-                {1, 120, 1191, 2416, 1191, 120, 1, 0},
-                {-7, -392, -1715, 0, 1715, 392, 7, 0},
-                {21, 504, 315, -1680, 315, 504, 21, 0},
-                {-35, -280, 665, 0, -665, 280, 35, 0},
-                {35, 0, -315, 560, -315, 0, 35, 0},
-                {-21, 84, -105, 0, 105, -84, 21, 0},
-                {7, -42, 105, -140, 105, -42, 7, 0},
-                {-1, 7, -21, 35, -35, 21, -7, 1}};
-            static const double P1[7][8] = {
-                {-7, -392, -1715, 0, 1715, 392, 7, 0},
-                {42, 1008, 630, -3360, 630, 1008, 42, 0},
-                {-105, -840, 1995, 0, -1995, 840, 105, 0},
-                {140, 0, -1260, 2240, -1260, 0, 140, 0},
-                {-105, 420, -525, 0, 525, -420, 105, 0},
-                {42, -252, 630, -840, 630, -252, 42, 0},
-                {-7, 49, -147, 245, -245, 147, -49, 7}};
-            static const double P2[6][8] = {
-                {42, 1008, 630, -3360, 630, 1008, 42, 0},
-                {-210, -1680, 3990, 0, -3990, 1680, 210, 0},
-                {420, 0, -3780, 6720, -3780, 0, 420, 0},
-                {-420, 1680, -2100, 0, 2100, -1680, 420, 0},
-                {210, -1260, 3150, -4200, 3150, -1260, 210, 0},
-                {-42, 294, -882, 1470, -1470, 882, -294, 42}};
-            const double c = 1.0 / 5040.0, ci = c * ih, ci2 = ci * ih;
-            double v[8], dv[8], ddv[8];
-            for (int m = 0; m < 8; m++) v[m] = P[7][m];
-            for (int k = 6; k >= 0; k--)
-                for (int m = 0; m < 8; m++) v[m] = v[m] * t + P[k][m];
-            for (int m = 0; m < 8; m++) w[m] = c * v[m];
-            if (order >= 1) {
-                for (int m = 0; m < 8; m++) dv[m] = P1[6][m];
-                for (int k = 5; k >= 0; k--)
-                    for (int m = 0; m < 8; m++) dv[m] = dv[m] * t + P1[k][m];
-                for (int m = 0; m < 8; m++) dw[m] = ci * dv[m];
-            }
-            if (order >= 2) {
-                for (int m = 0; m < 8; m++) ddv[m] = P2[5][m];
-                for (int k = 4; k >= 0; k--)
-                    for (int m = 0; m < 8; m++) ddv[m] = ddv[m] * t + P2[k][m];
-                for (int m = 0; m < 8; m++) ddw[m] = ci2 * ddv[m];
-            }
+            gcp_spl_w7(t, ih, order, w, dw, ddw);
         } else {
             w[0] = 1.0 - t;
             w[1] = t;
@@ -419,94 +338,13 @@ int gcp_spl_locate(const struct gcp_spl *s, const double *x, int order, struct g
     return out;
 }
 
-/* The sums run over the coefficients less the stencil's first one, c0
- * (exact: the weights sum to 1, their derivatives to 0), so that their
- * round-off is eps times the variation of the field over the stencil, not
- * eps times its offset: a second derivative of a field f with |f| >> the
- * variation over the stencil h |f'| would otherwise carry a relative error
- * eps |f| / (h^2 |f''|) (measured: 1e-12 in R_ee of the flux chart's table
- * of R ~ 1.7 m on an eta grid of 2 pi / 512; 2e-14 with the offset taken
- * out, tests/unit/test_gc_symplectic_flux.c). */
-/* 2D septic: the 8 x 8 stencil contracted along axis 1 first, all eight
- * columns at once (u[a] += w1[b] r[a] over the rows b: each lane sums in a
- * fixed order, so the compiler vectorises across a without reassociating),
- * then along axis 0 (six length-8 sums).  The same sums as the generic
- * loop in another order: equal to round-off, not bit for bit.  Why: the
- * generic order (eight dependent sums per row, row by row) is latency
- * bound, and the septic's 64 coefficients made it 1.6x the quintic's 36
- * (tests/bench/bench_eqdsk_eval.c). */
-static void spl_eval2_k8(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c,
-                         int order, struct gcp_spl_out *o)
-{
-    const double *co = s->coef[c] + loc->base;
-    const double c0 = co[0];
-    const size_t s1 = s->stride[1];
-    const double *w0 = loc->w[0], *dw0 = loc->dw[0], *ddw0 = loc->ddw[0];
-    double u[8] = {0}, u1[8] = {0}, u11[8] = {0};
-    if (order < 1) {
-        for (int b = 0; b < 8; b++) {
-            const double *rr = co + b * s1;
-            const double w = loc->w[1][b];
-            for (int a = 0; a < 8; a++) u[a] += w * (rr[a] - c0);
-        }
-        double f = 0;
-        for (int a = 0; a < 8; a++) f += w0[a] * u[a];
-        o->f = c0 + f;
-        return;
-    }
-    if (order < 2) {
-        for (int b = 0; b < 8; b++) {
-            const double *rr = co + b * s1;
-            const double w = loc->w[1][b], dw = loc->dw[1][b];
-            for (int a = 0; a < 8; a++) {
-                const double r = rr[a] - c0;
-                u[a] += w * r;
-                u1[a] += dw * r;
-            }
-        }
-        double f = 0, d0 = 0, d1 = 0;
-        for (int a = 0; a < 8; a++) {
-            f += w0[a] * u[a];
-            d0 += dw0[a] * u[a];
-            d1 += w0[a] * u1[a];
-        }
-        o->f = c0 + f;
-        o->d[0] = d0;
-        o->d[1] = d1;
-        return;
-    }
-    for (int b = 0; b < 8; b++) {
-        const double *rr = co + b * s1;
-        const double w = loc->w[1][b], dw = loc->dw[1][b], ddw = loc->ddw[1][b];
-        for (int a = 0; a < 8; a++) {
-            const double r = rr[a] - c0;
-            u[a] += w * r;
-            u1[a] += dw * r;
-            u11[a] += ddw * r;
-        }
-    }
-    double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
-    for (int a = 0; a < 8; a++) {
-        f += w0[a] * u[a];
-        d0 += dw0[a] * u[a];
-        d1 += w0[a] * u1[a];
-        d00 += ddw0[a] * u[a];
-        d01 += dw0[a] * u1[a];
-        d11 += w0[a] * u11[a];
-    }
-    o->f = c0 + f;
-    o->d[0] = d0;
-    o->d[1] = d1;
-    o->dd[0][0] = d00;
-    o->dd[0][1] = o->dd[1][0] = d01;
-    o->dd[1][1] = d11;
-}
-
+/* (the sums less c0: see spl_inline.h) */
 void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c, int order,
                   struct gcp_spl_out *o)
 {
     if (s->kind == GCP_SPL_SEPTIC && s->nd == 2) {
-        spl_eval2_k8(s, loc, c, order, o);
+        gcp_spl2_eval8(s->coef[c] + loc->base, s->stride[1], loc->w[0], loc->dw[0], loc->ddw[0],
+                       loc->w[1], loc->dw[1], loc->ddw[1], order, o);
         return;
     }
     const int K = s->kind == GCP_SPL_SEPTIC    ? 8
@@ -529,33 +367,8 @@ void gcp_spl_eval(const struct gcp_spl *s, const struct gcp_spl_loc *loc, int c,
         return;
     }
     if (s->nd == 2) {
-        const size_t s1 = s->stride[1];
-        double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
-        for (int b = 0; b < K; b++) {
-            const double *rr = co + b * s1;
-            double r[8];
-            for (int a = 0; a < K; a++) r[a] = rr[a] - c0;
-            double v = 0, v0 = 0, v00 = 0;
-            for (int a = 0; a < K; a++) v += loc->w[0][a] * r[a];
-            f += loc->w[1][b] * v;
-            if (order >= 1) {
-                for (int a = 0; a < K; a++) v0 += loc->dw[0][a] * r[a];
-                d0 += loc->w[1][b] * v0;
-                d1 += loc->dw[1][b] * v;
-            }
-            if (order >= 2) {
-                for (int a = 0; a < K; a++) v00 += loc->ddw[0][a] * r[a];
-                d00 += loc->w[1][b] * v00;
-                d01 += loc->dw[1][b] * v0;
-                d11 += loc->ddw[1][b] * v;
-            }
-        }
-        o->f = c0 + f;
-        o->d[0] = d0;
-        o->d[1] = d1;
-        o->dd[0][0] = d00;
-        o->dd[0][1] = o->dd[1][0] = d01;
-        o->dd[1][1] = d11;
+        gcp_spl2_eval_k(K, co, s->stride[1], loc->w[0], loc->dw[0], loc->ddw[0], loc->w[1],
+                        loc->dw[1], loc->ddw[1], order, o);
         return;
     }
     /* 3D: contract axis 0, then 1, then 2 (second derivatives not needed) */

@@ -91,11 +91,16 @@ static double dir_deriv(const double G[3][3], const double b[3], double Bm, doub
 static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o)
 {
     struct gcp_polchart_pt g;
-    int st = c->pc.map(c->pc.ctx, s, eta, &g);
-    const double X[3] = {g.R, 0.0, g.Z};
     struct gcp_field_sample fs = {.need = GCP_NEED_B | GCP_NEED_GRADB};
-    const int fst = gcp_field_eval(c->field, 0.0, X, &fs);
-    if (!st) st = fst;
+    int st;
+    if (c->pc.map_field) {
+        st = c->pc.map_field(c->pc.ctx, s, eta, &g, &fs);
+    } else {
+        st = c->pc.map(c->pc.ctx, s, eta, &g);
+        const double X[3] = {g.R, 0.0, g.Z};
+        const int fst = gcp_field_eval(c->field, 0.0, X, &fs);
+        if (!st) st = fst;
+    }
     const double Bm = sqrt(fs.B[0] * fs.B[0] + fs.B[1] * fs.B[1] + fs.B[2] * fs.B[2]);
     if (!(Bm > 0.0)) return GCP_STEP_FAILED;
     const double b[3] = {fs.B[0] / Bm, fs.B[1] / Bm, fs.B[2] / Bm};

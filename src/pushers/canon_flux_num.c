@@ -53,6 +53,7 @@
 #include "gcpush/error.h"
 #include "gcpush/particles.h"
 #include "grid_priv.h"
+#include "spl_inline.h"
 
 #define NRHO 128
 #define NETA 512
@@ -89,93 +90,48 @@ static double wrap_eta(double eta)
     return eta - 2.0 * GCP_PI * floor((eta + GCP_PI) / (2.0 * GCP_PI));
 }
 
-/* The quintic weights of one axis at t in [0, 1] (gcp_spl_locate's, the
- * same expressions: the same numbers). */
-static inline __attribute__((always_inline)) void q5_weights(double t, double ih, double w[6],
-                                                            double dw[6], double ddw[6])
-{
-    const double t2 = t * t, t3 = t2 * t, t4 = t3 * t, t5 = t4 * t, omt = 1.0 - t;
-    const double o2 = omt * omt, o4 = o2 * o2, c = 1.0 / 120.0;
-    w[0] = c * o4 * omt;
-    w[1] = c * (5 * t5 - 20 * t4 + 20 * t3 + 20 * t2 - 50 * t + 26);
-    w[2] = c * (-10 * t5 + 30 * t4 - 60 * t2 + 66);
-    w[3] = c * (10 * t5 - 20 * t4 - 20 * t3 + 20 * t2 + 50 * t + 26);
-    w[4] = c * (-5 * t5 + 5 * t4 + 10 * t3 + 10 * t2 + 5 * t + 1);
-    w[5] = c * t5;
-    const double ci = c * ih;
-    dw[0] = -5 * ci * o4;
-    dw[1] = ci * (25 * t4 - 80 * t3 + 60 * t2 + 40 * t - 50);
-    dw[2] = ci * (-50 * t4 + 120 * t3 - 120 * t);
-    dw[3] = ci * (50 * t4 - 80 * t3 - 60 * t2 + 40 * t + 50);
-    dw[4] = ci * (-25 * t4 + 20 * t3 + 30 * t2 + 20 * t + 5);
-    dw[5] = 5 * ci * t4;
-    const double ci2 = c * ih * ih;
-    ddw[0] = 20 * ci2 * o2 * omt;
-    ddw[1] = ci2 * (100 * t3 - 240 * t2 + 120 * t + 40);
-    ddw[2] = ci2 * (-200 * t3 + 360 * t2 - 120);
-    ddw[3] = ci2 * (200 * t3 - 240 * t2 - 120 * t + 40);
-    ddw[4] = ci2 * (-100 * t3 + 60 * t2 + 60 * t + 20);
-    ddw[5] = 20 * ci2 * t3;
-}
-
 /* R, Z, A_eta of the table with their first and second derivatives at x:
- * gcp_spl_locate and gcp_spl_eval of the biquintic table (order 2, the
- * components 0, 1, 2), operation for operation (the same numbers), with
- * the stencil's size a constant and the three components in one pass over
- * it.  Why: num_map runs at every chart evaluation (~20 a step of gc-gl4 in
- * DIII-D); with the generic routines (the kind and the stencil's size read
- * at run time, a locate and a pass a component) a step of gc-gl2 / gc-gl4
- * took 11% / 19% more CPU there (bench_flux's orbit, 6.4 / 10.0 us). */
+ * gcp_spl_locate and gcp_spl_eval (order 2, the components 0, 1, 2) from
+ * the inlines they are made of (fields/spl_inline.h: the same numbers),
+ * with the stencil's size a constant and one locate for the three.  Why:
+ * num_map runs at every chart evaluation (~11 a step of gc-gl2, ~17 of
+ * gc-gl4 in DIII-D, bench_flux's orbit); with the generic routines (the
+ * kind and the stencil's size read at run time, a call a component) a
+ * step of gc-gl2 / gc-gl4 took 11% / 19% more CPU there with the quintic
+ * table (6.4 / 10.0 us). */
 static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl_out o[3])
 {
-    double w[2][6], dw[2][6], ddw[2][6];
+    double w[2][8], dw[2][8], ddw[2][8];
     size_t base = 0;
+    const int sept = sp->kind == GCP_SPL_SEPTIC;
     for (int a = 0; a < 2; a++) {
-        double u = (x[a] - sp->x0[a]) * sp->inv_h[a];
-        if (!(u >= 0.0)) u = 0.0;
-        else if (u > sp->umax[a]) u = sp->umax[a];
-        size_t i = (size_t)u;
-        if (i > sp->n[a] - 2) i = sp->n[a] - 2;
-        const double t = u - (double)i;
-        base += i * sp->stride[a];
-        q5_weights(t, sp->inv_h[a], w[a], dw[a], ddw[a]);
+        size_t off;
+        double t;
+        gcp_spl_cell(sp, a, x[a], &off, &t);
+        base += off;
+        if (sept)
+            gcp_spl_w7(t, sp->inv_h[a], 2, w[a], dw[a], ddw[a]);
+        else
+            gcp_spl_w5(t, sp->inv_h[a], 2, w[a], dw[a], ddw[a]);
     }
     const size_t s1 = sp->stride[1];
     for (int c = 0; c < 3; c++) {
-        const double *co = sp->coef[c] + base;
-        const double c0 = co[0];
-        double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
-        for (int b = 0; b < 6; b++) {
-            const double *rr = co + b * s1;
-            double r[6];
-            for (int a = 0; a < 6; a++) r[a] = rr[a] - c0;
-            double v = 0, v0 = 0, v00 = 0;
-            for (int a = 0; a < 6; a++) v += w[0][a] * r[a];
-            f += w[1][b] * v;
-            for (int a = 0; a < 6; a++) v0 += dw[0][a] * r[a];
-            d0 += w[1][b] * v0;
-            d1 += dw[1][b] * v;
-            for (int a = 0; a < 6; a++) v00 += ddw[0][a] * r[a];
-            d00 += w[1][b] * v00;
-            d01 += dw[1][b] * v0;
-            d11 += ddw[1][b] * v;
-        }
-        o[c].f = c0 + f;
-        o[c].d[0] = d0;
-        o[c].d[1] = d1;
-        o[c].dd[0][0] = d00;
-        o[c].dd[0][1] = o[c].dd[1][0] = d01;
-        o[c].dd[1][1] = d11;
+        if (sept)
+            gcp_spl2_eval8(sp->coef[c] + base, s1, w[0], dw[0], ddw[0], w[1], dw[1], ddw[1], 2,
+                           &o[c]);
+        else
+            gcp_spl2_eval_k(6, sp->coef[c] + base, s1, w[0], dw[0], ddw[0], w[1], dw[1], ddw[1],
+                            2, &o[c]);
     }
 }
 
-static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
+/* The table's part of the map (R, Z, A_eta and their derivatives). */
+static void num_map_table(const struct numchart *n, double s, double eta,
+                          struct gcp_polchart_pt *pt)
 {
-    const struct numview *v = ctx;
-    const struct numchart *n = v->t;
     const double x[2] = {s, wrap_eta(eta)};
     struct gcp_spl_out o[3];
-    if (n->spl.kind == GCP_SPL_QUINTIC && n->spl.nd == 2) {
+    if ((n->spl.kind == GCP_SPL_QUINTIC || n->spl.kind == GCP_SPL_SEPTIC) && n->spl.nd == 2) {
         num_spl3(&n->spl, x, o);
     } else {
         struct gcp_spl_loc loc;
@@ -188,13 +144,42 @@ static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt
     pt->A_s = o[2].d[0], pt->A_e = o[2].d[1];
     pt->R_ss = o[0].dd[0][0], pt->R_se = o[0].dd[0][1], pt->R_ee = o[0].dd[1][1];
     pt->Z_ss = o[1].dd[0][0], pt->Z_se = o[1].dd[0][1], pt->Z_ee = o[1].dd[1][1];
-    double ps[6];
-    const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
+}
+
+/* psi's part, from psi and its R, Z derivatives at the point (ps), and the
+ * map's status (st: psi's). */
+static int num_map_psi(const struct numchart *n, double s, const double ps[6], int st,
+                       struct gcp_polchart_pt *pt)
+{
     pt->psi = ps[0];
     pt->psi_s = ps[1] * pt->R_s + ps[2] * pt->Z_s;
     pt->psi_e = ps[1] * pt->R_e + ps[2] * pt->Z_e;
     if (!(s >= 0.0 && s <= n->rho_max)) return GCP_LEFT_DOMAIN;
     return st ? GCP_LEFT_DOMAIN : 0;
+}
+
+static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
+{
+    const struct numview *v = ctx;
+    num_map_table(v->t, s, eta, pt);
+    double ps[6];
+    const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
+    return num_map_psi(v->t, s, ps, st, pt);
+}
+
+/* num_map and the field at the point, psi evaluated once for both
+ * (gcp_field_psi_B_RZ: in DIII-D the map's psi and the field's B are one
+ * spline locate and evaluation, not two). */
+static int num_map_field(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt,
+                         struct gcp_field_sample *fs)
+{
+    const struct numview *v = ctx;
+    num_map_table(v->t, s, eta, pt);
+    double ps[6];
+    int fst;
+    const int st = gcp_field_psi_B_RZ(v->f, pt->R, pt->Z, ps, fs, &fst);
+    const int mst = num_map_psi(v->t, s, ps, st, pt);
+    return mst ? mst : fst;
 }
 
 /* The distance from (R, Z) to the chart's point (rho, eta node j): R and Z
@@ -703,6 +688,7 @@ int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char
     v->t = t;
     c->pc.ctx = v;
     c->pc.map = num_map;
+    c->pc.map_field = num_map_field;
     c->pc.locate = num_locate;
     c->pc.s_max = t->rho_max;
     c->pc.what = "tabulated orthogonal (rho, eta), rho = sqrt(psi_N)";

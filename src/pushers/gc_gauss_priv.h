@@ -63,6 +63,8 @@ struct gl_lane {
     double ceta, ct1[2], ct2[2];
     int have_C;                 /* [bool] ceta, ct1, ct2 are the last step's */
     double hJ;                  /* step of the kept Jacobian */
+    int have_DF;                /* [bool] DF, DFp, Jinv are the last accepted wlift step's, at step hDF */
+    double hDF;
     double t;                   /* [s] physical time (advanced by the step) */
     double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */
     double Bref;                /* [T] |B| at the start (Sundman: w = 1 there) */

@@ -29,7 +29,11 @@
  * and each point then moves by dw above with (d eta, dP) = h (A d)_i: an
  * exact Newton step for the chart's part (Gw, Ge fresh at every iterate, no
  * field evaluation beyond the point's own), a simplified one for F's (DF,
- * M from the first iterate of the step).  F_w, F_eta by forward
+ * M from the first iterate of the step, or the last accepted step's at the
+ * same h: a frozen Jacobian, two chart evaluations a stage saved; the
+ * refresh below takes it anew where it contracts badly.  Measured on
+ * bench_flux's orbits, chart evaluations a step 10.6 -> 9.3 (gc-gl2) in the
+ * tokamak, 17.8 -> 16.5 (gc-gl4) in DIII-D; the fixed point is unchanged).  F_w, F_eta by forward
  * differences, 1e-7 of the scales: s and eta by one evaluation each, p_par
  * from the same geometry (no field evaluation).  The fixed point is the
  * inverting solver's (K_i = F at the stage's z, the point on the chart), so
@@ -159,6 +163,9 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
     const int s = T->s, n = 2 * s;
     double K[GL_SMAX][2], w[GL_SMAX][2], g[GL_SMAX][2], pd[GL_SMAX][2];
     struct gcp_canon_wpoint o[GL_SMAX];
+    /* the last step's DF (a frozen Jacobian) where it has one at this h */
+    const int stale = L->have_DF && L->hDF == h;
+    L->have_DF = 0;
     if (gcp_gl_lift_begin(C, k, L, h, K, w)) return GCP_STEP_FAILED;
     double nprev = INFINITY, thprev = 0.0;
     int refreshed = 0;
@@ -175,7 +182,7 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
         /* DF at the first iterate, and once more where the first update was
          * large (a predictor far off: DF taken there is off too) or an update
          * contracted less than 10x */
-        if (it == 0 || (!refreshed && (it == 1 ? nprev > 1e-2 : thprev > 0.1))) {
+        if ((it == 0 && !stale) || (!refreshed && it > 0 && (it == 1 ? nprev > 1e-2 : thprev > 0.1))) {
             refreshed = it > 0;
             for (int i = 0; i < s; i++)
                 if (glw_df(C, k, L, i, eta[i], w[i], &o[i], g[i])) return GCP_STEP_FAILED;
@@ -240,6 +247,7 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
             double nc[GL_SMAX][2];
             for (int i = 0; i < GL_SMAX; i++) nc[i][0] = nc[i][1] = NAN;
             gcp_gl_lift_end(C, L, h, K, z1, t1, w, nc, nc, pe);
+            L->have_DF = 1, L->hDF = h;
             return 0;
         }
         nprev = nd;

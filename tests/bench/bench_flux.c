@@ -5,13 +5,14 @@
  * per bounce), with the energy and P_phi sampled every step as there.
  * CPU time per step; ratios to gc-rk4 at the same step.  Not a test. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "gcpush/grid.h"
 #include "test_gc_util.h"
 
-#define NSTEPS 20000
+static int NSTEPS = 20000;
 
 struct sys {
     const char *name;
@@ -77,8 +78,11 @@ static double us_per_step(const struct sys *S, const struct gcp_pusher_type *p, 
     return 1e6 * dt / NSTEPS;
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
+    /* optional: bench_flux FIELD METHOD [NSTEPS] (0/1, 0..2): that one only (for perf) */
+    const int only_k = argc > 2 ? atoi(argv[1]) : -1, only_j = argc > 2 ? atoi(argv[2]) : -1;
+    if (argc > 3) NSTEPS = atoi(argv[3]);
     struct sys S[2];
     S[0].name = "tokamak p+ 100 keV";
     S[0].f = gcp_field_tokamak_create(2.5, 3.0, 1.0, 1.1, 3.5);
@@ -99,7 +103,10 @@ int main(void)
                                           &gcp_pusher_gc_gl4};
     for (int k = 0; k < 2; k++) {
         double us[3];
-        for (int j = 0; j < 3; j++) us[j] = us_per_step(&S[k], ps[j], j ? 1.0 : 12.0);
+        for (int j = 0; j < 3; j++)
+            us[j] = (only_k < 0 || (k == only_k && j == only_j))
+                        ? us_per_step(&S[k], ps[j], j ? 1.0 : 12.0)
+                        : 1.0;
         printf("  %-18s gc-rk4 %6.2f   gc-gl2 %6.2f (%4.1fx)   gc-gl4 %6.2f (%4.1fx)\n",
                S[k].name, us[0], us[1], us[1] / us[0], us[2], us[2] / us[0]);
         gcp_field_free(S[k].f);

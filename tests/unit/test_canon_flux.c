@@ -223,6 +223,7 @@ Test(canon_flux, tokamak_flow_equals_gc_equations)
         struct wrong_ctx w = {.pc = fc->pc, .kind = kind, .kappa = 2.0};
         struct gcp_flux_chart wc = *fc;
         wc.pc.ctx = &w, wc.pc.map = wrong_map, wc.pc.locate = wrong_locate;
+        wc.pc.map_field = NULL; /* the wrong map, not the table's fused one */
         struct gcp_canon_chart cw = c;
         cw.data = &wc;
         const double ew = max_flow_error(&cw, f, 50, &pg);
@@ -451,6 +452,7 @@ Test(canon_flux, eqdsk_chart, .timeout = 60)
     struct gcp_flux_chart wc = *fc;
     struct wrong_ctx w = {.pc = fc->pc, .kind = 0};
     wc.pc.ctx = &w, wc.pc.map = wrong_map, wc.pc.locate = wrong_locate;
+        wc.pc.map_field = NULL; /* the wrong map, not the table's fused one */
     struct gcp_canon_chart cw = c;
     cw.data = &wc;
     const double ew = max_flow_error(&cw, f, 50, &pg);
