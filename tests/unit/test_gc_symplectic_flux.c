@@ -435,6 +435,18 @@ static struct lr_result long_run(const struct fsys *S, const struct gcp_pusher_t
  * hundredth in DIII-D (gc-rk4 costs 3x the tokamak's a step there; its
  * trend is 1.0 of its range over either). */
 #define LR_STEPS 10000000
+/* The DIII-D long runs under AddressSanitizer (make DEBUG=1, -O1): ~10x the
+ * reference build's 60-90 s CPU each, past Criterion's timeout on two
+ * loaded cores.  That build checks memory and undefined behaviour, which
+ * 1e6 steps exercise on the same paths; the issue's 1e7-step physics bound
+ * is asserted by the reference build (make check).  At 1e6 steps the bounds
+ * still hold with margin (measured at 1e6, below: trends 9.9e-6 and 5.0e-6
+ * of the range against the bound 1e-3, P_phi 5.9e-14 and 2.9e-14). */
+#if defined(__SANITIZE_ADDRESS__)
+#define LR_STEPS_EQDSK (LR_STEPS / 10)
+#else
+#define LR_STEPS_EQDSK LR_STEPS
+#endif
 #define LR_N 25.37
 
 static void nonsymplectic_drift(const struct fsys *S, double h, int64_t nsteps)
@@ -491,7 +503,7 @@ Test(gc_symplectic_flux, eqdsk_long_run_gl2_energy_bounded_pphi_exact, .timeout 
 {
     struct fsys S;
     sys_eqdsk(&S);
-    symplectic_long_run(&S, &gcp_pusher_gc_gl2, LR_STEPS, 1e-12);
+    symplectic_long_run(&S, &gcp_pusher_gc_gl2, LR_STEPS_EQDSK, 1e-12);
     fsys_free(&S);
 }
 
@@ -499,7 +511,7 @@ Test(gc_symplectic_flux, eqdsk_long_run_gl4_energy_bounded_pphi_exact, .timeout 
 {
     struct fsys S;
     sys_eqdsk(&S);
-    symplectic_long_run(&S, &gcp_pusher_gc_gl4, LR_STEPS, 1e-12);
+    symplectic_long_run(&S, &gcp_pusher_gc_gl4, LR_STEPS_EQDSK, 1e-12);
     fsys_free(&S);
 }
 
