@@ -58,6 +58,22 @@ static void fill(struct gcp_block *b, size_t n, double W, double Lmin, double Lm
     b->n_active = n;
 }
 
+/* The dipole scene of the dipole tests (atmosphere at 100 km, outer
+ * boundary 15 R_E): b0 allocated and filled as fill() (n lanes), and *dt
+ * 0.05 of the gyro-period on the equator at L = 4 of lane 0's gamma. */
+static struct gcp_field *dipole_scene(struct gcp_block *b0, size_t n, double W, double Lmin,
+                                      double Lmax, double pmin, double pmax, double *dt)
+{
+    struct gcp_field *f = gcp_field_dipole_create(B0, 0, RE + 100e3, 15.0 * RE);
+    cr_assert_not_null(f);
+    cr_assert_eq(gcp_block_alloc(b0, n), 0);
+    fill(b0, n, W, Lmin, Lmax, pmin, pmax);
+    const double Beq = B0 / 64.0, m = GCP_M_PROTON;
+    const double gamma = gcp_gamma_of_u(b0->ux[0], b0->uy[0], b0->uz[0]);
+    *dt = 0.05 * 2 * GCP_PI * gamma * m / (GCP_E_CHARGE * Beq);
+    return f;
+}
+
 /* Pushes the block b0 (n lanes) with boris for nsteps of dt under a fresh
  * observer (mu K L, cadence sample_dt), per-step (fused = 0) or through
  * gcp_block_advance_fo_gyro; the sorted events in *ev, sampler calls
@@ -127,36 +143,43 @@ static void same_events(const char *what, const struct gcp_events *a, const stru
                 (long long)kinds[GCP_EVENT_SAMPLE], (long long)kinds[GCP_EVENT_LOSS]);
 }
 
+/* The push of b0 per step and fused (run), whose events must be the same
+ * bit for bit; the fused run's events in *eb (the caller frees them),
+ * the sampler calls of each in c[0] (per step), c[1] (fused), the live
+ * lanes at the end of each in alive[0], alive[1]. */
+static void run_pair(const char *what, const struct gcp_field *f, const struct gcp_block *b0,
+                     size_t n, double dt, int64_t nsteps, double sample_dt, struct gcp_events *eb,
+                     int64_t c[2], int64_t alive[2])
+{
+    struct gcp_events ea = {0};
+    c[0] = run(f, b0, n, dt, nsteps, sample_dt, 0, &ea, &alive[0]);
+    c[1] = run(f, b0, n, dt, nsteps, sample_dt, 1, eb, &alive[1]);
+    same_events(what, &ea, eb);
+    gcp_events_free(&ea);
+}
+
 /* Trapped protons, none lost: the fused path the whole push, with mirror
  * points, bounces, equator points and (at L 4.5, 2 MeV: a drift period of
  * ~5 min) drift turns; 37 lanes, so the tile has a vector remainder. */
 Test(invariants_fo_fused, dipole_trapped_bit_identical)
 {
-    struct gcp_field *f = gcp_field_dipole_create(B0, 0, RE + 100e3, 15.0 * RE);
-    cr_assert_not_null(f);
     const size_t n = 37;
     struct gcp_block b0;
-    cr_assert_eq(gcp_block_alloc(&b0, n), 0);
-    fill(&b0, n, 2.0 * MEV, 4.0, 4.5, 30 * DEG, 90 * DEG);
-    /* 0.05 of the gyro-period at L = 4 on the equator */
-    const double Beq = B0 / 64.0, m = GCP_M_PROTON;
-    const double gamma = gcp_gamma_of_u(b0.ux[0], b0.uy[0], b0.uz[0]);
-    const double dt = 0.05 * 2 * GCP_PI * gamma * m / (GCP_E_CHARGE * Beq);
+    double dt;
+    struct gcp_field *f = dipole_scene(&b0, n, 2.0 * MEV, 4.0, 4.5, 30 * DEG, 90 * DEG, &dt);
     const int64_t nsteps = (int64_t)(330.0 / dt);
-    struct gcp_events ea = {0}, eb = {0};
-    int64_t la, lb;
-    const int64_t ca = run(f, &b0, n, dt, nsteps, 5.0, 0, &ea, &la);
-    const int64_t cb = run(f, &b0, n, dt, nsteps, 5.0, 1, &eb, &lb);
-    cr_assert_eq(ca, nsteps, "the per-step observer sees every step");
-    cr_assert_lt(cb, nsteps / 50, "fused: %lld sampler calls for %lld steps", (long long)cb,
+    struct gcp_events eb = {0};
+    int64_t c[2], alive[2];
+    run_pair("trapped", f, &b0, n, dt, nsteps, 5.0, &eb, c, alive);
+    cr_assert_eq(c[0], nsteps, "the per-step observer sees every step");
+    cr_assert_lt(c[1], nsteps / 50, "fused: %lld sampler calls for %lld steps", (long long)c[1],
                  (long long)nsteps);
-    cr_assert_eq(la, (int64_t)n);
-    cr_assert_eq(lb, (int64_t)n);
-    same_events("trapped", &ea, &eb);
+    cr_assert_eq(alive[0], (int64_t)n);
+    cr_assert_eq(alive[1], (int64_t)n);
     int drift = 0;
-    for (int64_t k = 0; k < ea.n; k++) drift += ea.e[k].kind == GCP_EVENT_DRIFT;
+    for (int64_t k = 0; k < eb.n; k++) drift += eb.e[k].kind == GCP_EVENT_DRIFT;
     cr_assert_gt(drift, 0, "a drift turn in the push");
-    gcp_events_free(&ea), gcp_events_free(&eb);
+    gcp_events_free(&eb);
     gcp_block_free(&b0);
     gcp_field_free(f);
 }
@@ -168,26 +191,19 @@ Test(invariants_fo_fused, dipole_trapped_bit_identical)
  * events, the losses' interpolated crossings included. */
 Test(invariants_fo_fused, dipole_losses_bit_identical)
 {
-    struct gcp_field *f = gcp_field_dipole_create(B0, 0, RE + 100e3, 15.0 * RE);
-    cr_assert_not_null(f);
     const size_t n = 16;
     struct gcp_block b0;
-    cr_assert_eq(gcp_block_alloc(&b0, n), 0);
-    fill(&b0, n, 1.0 * MEV, 3.5, 4.5, 1 * DEG, 60 * DEG);
-    const double Beq = B0 / 64.0, m = GCP_M_PROTON;
-    const double gamma = gcp_gamma_of_u(b0.ux[0], b0.uy[0], b0.uz[0]);
-    const double dt = 0.05 * 2 * GCP_PI * gamma * m / (GCP_E_CHARGE * Beq);
+    double dt;
+    struct gcp_field *f = dipole_scene(&b0, n, 1.0 * MEV, 3.5, 4.5, 1 * DEG, 60 * DEG, &dt);
     const int64_t nsteps = (int64_t)(20.0 / dt);
-    struct gcp_events ea = {0}, eb = {0};
-    int64_t la, lb;
-    run(f, &b0, n, dt, nsteps, 1.0, 0, &ea, &la);
-    const int64_t cb = run(f, &b0, n, dt, nsteps, 1.0, 1, &eb, &lb);
-    cr_assert_lt(la, (int64_t)n, "a lane precipitated");
-    cr_assert_eq(la, lb);
-    cr_assert_lt(cb, nsteps, "fused: %lld sampler calls for %lld steps", (long long)cb,
+    struct gcp_events eb = {0};
+    int64_t c[2], alive[2];
+    run_pair("losses", f, &b0, n, dt, nsteps, 1.0, &eb, c, alive);
+    cr_assert_lt(alive[0], (int64_t)n, "a lane precipitated");
+    cr_assert_eq(alive[0], alive[1]);
+    cr_assert_lt(c[1], nsteps, "fused: %lld sampler calls for %lld steps", (long long)c[1],
                  (long long)nsteps);
-    same_events("losses", &ea, &eb);
-    gcp_events_free(&ea), gcp_events_free(&eb);
+    gcp_events_free(&eb);
     gcp_block_free(&b0);
     gcp_field_free(f);
 }
@@ -222,12 +238,10 @@ Test(invariants_fo_fused, uniform_mu_analytic)
     const double Tg = 2 * GCP_PI * gamma * m / (q * Bz);
     const double dt = 0.05 * Tg;
     const int64_t nsteps = 2000;
-    struct gcp_events ea = {0}, eb = {0};
-    int64_t la, lb;
-    run(f, &b0, n, dt, nsteps, 3.0 * Tg, 0, &ea, &la);
-    const int64_t cb = run(f, &b0, n, dt, nsteps, 3.0 * Tg, 1, &eb, &lb);
-    cr_assert_lt(cb, nsteps / 50);
-    same_events("uniform", &ea, &eb);
+    struct gcp_events eb = {0};
+    int64_t c[2], alive[2];
+    run_pair("uniform", f, &b0, n, dt, nsteps, 3.0 * Tg, &eb, c, alive);
+    cr_assert_lt(c[1], nsteps / 50);
     const double mu = m * m * u * sin(a) * u * sin(a) / (2.0 * m * Bz);
     double worst = 0;
     int ns = 0;
@@ -239,7 +253,7 @@ Test(invariants_fo_fused, uniform_mu_analytic)
     cr_log_info("uniform: %d mu samples, worst relative error %.2e", ns, worst);
     cr_assert_geq(ns, (int)n * 20);
     cr_assert_lt(worst, 1e-12, "mu vs analytic: %.3e", worst);
-    gcp_events_free(&ea), gcp_events_free(&eb);
+    gcp_events_free(&eb);
     gcp_block_free(&b0);
     gcp_field_free(f);
 }
