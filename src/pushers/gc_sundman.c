@@ -227,6 +227,9 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_push_opts *o, const struct gcp_sampler *s,
                          const struct gl_tableau *tab)
 {
+    /* the dipole: its line coordinates, fused (gc_sundman_dipole.c) */
+    size_t live;
+    if (gcp_sundman_dipole_advance(b, f, o, s, tab, &live) == 0) return live;
     struct gl_ctx C = {.tab = tab, .sundman_a = GCP_SUNDMAN_A};
     if (gcp_canon_chart_create(f, &C.chart, NULL, 0) || !C.chart.field_strength) {
         gcp_canon_chart_destroy(&C.chart);
