@@ -37,7 +37,9 @@
  * does end before it (a step past t1 is not taken, and is taken again, to
  * the same bits, in the next slice); the state at t1 is then one more
  * Gauss-Legendre step from the last grid point, of size ds' with
- * t(ds') = t1 to 4 ulp by secant iteration (as gc_sundman.c sd_land), written
+ * t(ds') = t1 to 4 ulp by Newton's iteration with dt/ds' = w(s) at the
+ * step's end (the exact flow's rate; gc_sundman.c's secant through the
+ * origin converges linearly, too slowly over a whole grid step), written
  * to X, p_par -- and not kept: the lane goes on from its grid point.  So the
  * map of the lane is exactly the symplectic s-step map however often it
  * is sampled (gc_sundman.c's landing step, kept, is not symplectic), and
@@ -231,7 +233,7 @@ sdl_tile_run(const int S, const struct gcp_evolve *ev, const struct sdl_ctx *c, 
                     if (st) sdl_done(t, i, g->s[i], g->Q[i], g->phip[i], t->t[i], st);
                 }
             } else {
-                /* landing: the secant on t(ds') = t1 */
+                /* landing: Newton on t(ds') = t1 with dt/ds' = w at the end */
                 const double got = tn - t->t[i];
                 if (fabs(tn - t1) <= 4.0 * DBL_EPSILON * fmax(fabs(t1), fabs(t->t[i])) + DBL_MIN) {
                     t->steps[i]++;
@@ -241,7 +243,7 @@ sdl_tile_run(const int S, const struct gcp_evolve *ev, const struct sdl_ctx *c, 
                     sdl_done(t, i, g->s[i], g->Q[i], g->phip[i], t->t[i],
                              gcp_lane_fail(b, i0 + i, GCP_FAIL_NO_CONVERGENCE));
                 } else {
-                    t->dsk[i] *= t->span[i] / got;
+                    t->dsk[i] += (t1 - tn) / sdl_w(g->s1[i], g->c04[i]);
                 }
             }
         }
