@@ -320,7 +320,8 @@ dgl_finish(const int S, const int SUND, const struct dgl_args *restrict A,
             if (SUND) dt += A->b[st] * t->Kt[st][i];
         }
         const double s1 = s0 + h * ds;
-        t->s1[i] = s1, t->Q1[i] = Q0 + h * dQ, t->dp[i] = dp, t->dt[i] = dt;
+        t->s1[i] = s1, t->Q1[i] = Q0 + h * dQ, t->dp[i] = dp;
+        if (SUND) t->dt[i] = dt;
         const int chart = !(off < 1.0) | !(fabs(s1) < 1.0);
         const int nc = (t->fail[i] != 0.0) | (t->act[i] != 0.0);
         t->fail[i] = nc ? 1.0 : chart ? 2.0 : 0.0;
