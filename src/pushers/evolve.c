@@ -163,7 +163,10 @@ size_t gcp_evolve_adaptive(struct gcp_block *b, const struct gcp_field *f,
     for (int64_t k = 0; k < o->nsteps && n > 0; k += chunk) {
         const int64_t kn = k + chunk < o->nsteps ? k + chunk : o->nsteps;
         const double t1 = kn == o->nsteps ? ev.t_end : o->t0 + (double)kn * o->dt;
-        for (size_t i = 0; i < n; i++) b->status[i] = st->run(&ev, ctx, b, i, t1, L + i * sz);
+        if (st->run_lanes)
+            st->run_lanes(&ev, ctx, b, n, t1, L);
+        else
+            for (size_t i = 0; i < n; i++) b->status[i] = st->run(&ev, ctx, b, i, t1, L + i * sz);
         n = adaptive_retire(b, L, sz, tmp, n);
         b->n_active = n;
         if (every && n > 0) s->fn(b, t1, s->ctx);

@@ -249,6 +249,11 @@ struct gcp_adaptive_stepper {
                 void *lane);
     int32_t (*run)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t i,
                    double t1, void *lane);
+    /* Or, when set, the same for the n live lanes at once (lane i's state at
+     * lanes + i lane_size): b->status[i], b->t[i], b->steps[i] written for
+     * each (gc_sundman_dipole.c: tiles of lanes, each on its own clock). */
+    void (*run_lanes)(const struct gcp_evolve *ev, void *ctx, struct gcp_block *b, size_t n,
+                      double t1, unsigned char *lanes);
 };
 size_t gcp_evolve_adaptive(struct gcp_block *b, const struct gcp_field *f,
                            const struct gcp_push_opts *o, const struct gcp_sampler *s,

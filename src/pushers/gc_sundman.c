@@ -73,7 +73,10 @@
  *     lane: the lifted Newton solve of gc_gauss.c is not used with the
  *     transformation), so at 82 deg and 1e-6 the same T_d costs 1.2x less
  *     CPU time per lane, and more than the fixed step on the block solver
- *     (gc_gauss_block.c, ~0.35 us a step).
+ *     (gc_gauss_block.c, ~0.35 us a step).  In the dipole the pushers now
+ *     run the transformation in the field line's coordinates, fused over
+ *     tiles (gc_sundman_dipole.c: ~0.06 us a step, ~1.6x the fixed fused
+ *     gc-gl4 step), and win in CPU time too (tests/bench/bench_sundman.c).
  *     A barely trapped tokamak orbit (100 keV proton, analytic tokamak,
  *     v_par/v = 0.563 at r = a/2, bounce period twice a deep banana's):
  *     w = (|B|/B_ref)^2 or ^4 (larger steps at the turning points, where
@@ -91,7 +94,8 @@
  * phases and anything that needs the orbit's position at given times; not
  * for tokamak orbits (|B| varies by ~1.5x: plain gc-gl4 is as good).
  *
- * Output times.  The lanes run on their own clocks (the evolve layer's
+ * Output times (this file's per-lane path; the dipole's lands beside its
+ * grid instead, gc_sundman_dipole.c).  The lanes run on their own clocks (the evolve layer's
  * loop for such methods, gcp_evolve_adaptive with no GSL stepper: begin,
  * lane states, slicing at the sampling times, retirement, the sampler; this
  * file supplies the lane's init and its run to the next sampling time); at
@@ -227,6 +231,9 @@ static size_t sd_advance(struct gcp_block *b, const struct gcp_field *f,
                          const struct gcp_push_opts *o, const struct gcp_sampler *s,
                          const struct gl_tableau *tab)
 {
+    /* the dipole: its line coordinates, fused (gc_sundman_dipole.c) */
+    size_t live;
+    if (gcp_sundman_dipole_advance(b, f, o, s, tab, &live) == 0) return live;
     struct gl_ctx C = {.tab = tab, .sundman_a = GCP_SUNDMAN_A};
     if (gcp_canon_chart_create(f, &C.chart, NULL, 0) || !C.chart.field_strength) {
         gcp_canon_chart_destroy(&C.chart);

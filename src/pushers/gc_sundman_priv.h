@@ -28,4 +28,17 @@ static inline int gcp_sundman_w(const struct gl_ctx *C, const struct gcp_gc_cons
 int gcp_sundman_lane_init(const struct gl_ctx *C, const struct gcp_block *b, size_t i, double t0,
                           struct gl_lane *L);
 
+/* gc-gl2/gl4-sundman in the dipole's line coordinates, fused
+ * (gc_sundman_dipole.c): 0 with the live lane count in *live when it
+ * pushed, -1 when the field is not the dipole form without E (the chart's
+ * per-lane path then pushes). */
+int gcp_sundman_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
+                               const struct gcp_push_opts *o, const struct gcp_sampler *smp,
+                               const struct gl_tableau *tab, size_t *live);
+/* Its s-step on the extended state y = (phi', s, t, P_phi, P_s, p_t) of
+ * the dipole k for tests (S stages; c04: w^4 = c04 W^3/g; plain: the step
+ * in t of size w(s0) ds instead); *H the energy at the end; 0 or -1. */
+int gcp_sundman_dipole_step(double k, double q, double m, double mu, double c04, int S, double ds,
+                            int plain, double y[6], double *H);
+
 #endif

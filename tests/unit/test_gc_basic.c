@@ -437,6 +437,18 @@ Test(gc_basic, battery_step_failed_state_restored)
         const struct gcp_push_opts o = {0.0, vi ? 50 * Tb : Tb / 100, vi ? 1 : 100,
                                         vi ? 0.0 : 1e-30, 0.0};
         p->advance(&b, f, p, &o, NULL);
+        if (strstr(p->name, "-sundman")) {
+            /* in the dipole the Sundman forms run in the line's coordinates
+             * (gc_sundman_dipole.c), where this s-step converges: w -> 0
+             * toward the line's pole slows the transformed flow, and the
+             * 1-D bounce's stage equations have a solution; the lane lands
+             * alive on t = dt (its failure path is gc_sundman.c's outside
+             * the dipole) */
+            cr_expect_eq(b.status[0], GCP_ALIVE, "%s: status %d", p->name, b.status[0]);
+            cr_expect(b.t[0] == o.dt, "%s: t %g", p->name, b.t[0]);
+            gcp_block_free(&b);
+            continue;
+        }
         cr_expect_eq(b.status[0], GCP_STEP_FAILED, "%s: status %d", p->name, b.status[0]);
         /* the reason rides with the lane (issue 11): Newton for the midpoint
          * scheme, the error control below round-off for the GSL methods, and

@@ -1,0 +1,294 @@
+/* gc-gl2-sundman / gc-gl4-sundman in the dipole's field-line coordinates
+ * (src/pushers/gc_sundman_dipole.c, issue 11): the Sundman-transformed
+ * Gauss-Legendre s-step in (phi', s, t; P_phi, P_s, p_t), fused over
+ * tiles.  (Its drift-phase gain in steps runs in test_gc_sundman.c, which
+ * reaches it through the pusher in the dipole.)
+ *
+ *  - The one-s-step map is symplectic in the extended phase space, at the
+ *    finite-difference floor for every ds, and the step chosen from the
+ *    state (the plain step in t of size w(s0) ds) is not.
+ *  - The energy stays bounded over a long run (no secular trend), and
+ *    drifts with the step chosen from the state.
+ *  - The numbers do not depend on how the push is sliced: the lanes land
+ *    on the output times beside their grid of s-steps, so a push sampled
+ *    at every step, every 7 steps, or never gives the same bits, with lanes
+ *    that precipitate and turn non-adiabatic in different tiles.
+ * Orbits: 1 MeV electrons at L = 4 mirroring at 62.9 deg (equatorial pitch
+ * 4 deg) and at 82 deg (0.11 deg), as test_gc_sundman.c. */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <criterion/criterion.h>
+
+#include "gcpush/field.h"
+#include "gcpush/field_kernels.h"
+#include "gcpush/gc.h"
+#include "gcpush/particles.h"
+#include "gcpush/pusher.h"
+#include "pushers/gc_sundman_priv.h"
+#include "test_gc_util.h"
+
+struct sl_sys {
+    struct gcp_field *f;
+    double k;                 /* [T m^3] the dipole's constant */
+    double q, m, mu;
+    double X[3], ppar;
+    double Tb, Td, latm;
+};
+
+static void sl_dipole(struct sl_sys *s, double a_deg)
+{
+    s->f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
+    cr_assert_not_null(s->f);
+    struct gcp_point_B form;
+    cr_assert(gcp_field_point_B(s->f, &form) && form.form == GCP_POINT_B_DIPOLE);
+    s->k = form.p[0];
+    s->m = GCP_M_ELECTRON, s->q = -GCP_E_CHARGE;
+    const double T = 1e6 * GCP_E_CHARGE, a = a_deg * GCP_PI / 180.0, p = gc_p_of_T(T, s->m);
+    s->X[0] = 4.0 * GC_RE, s->X[1] = 0.0, s->X[2] = 0.0;
+    s->ppar = p * cos(a);
+    s->mu = p * sin(a) * p * sin(a) / (2.0 * s->m * gc_Bmag(s->f, s->X));
+    gc_dip_theory(s->f, s->q, s->m, T, 4.0, a, &s->Tb, &s->Td, &s->latm);
+}
+
+#define SL_PITCH_82 (asin(1.0 / sqrt(gc_dip_b(82.0 * GCP_PI / 180.0))) * 180.0 / GCP_PI)
+
+/* The extended state (phi', s, t, P_phi, P_s, p_t) at (X, p_par), t = 0
+ * (gc_gauss_dipole.c's header: L = r^3/R^2, s = z/r, P_s = sgn(k) p_par L
+ * g, P_phi = -q k/L, phi' = phi - w 2 s W Q/T, p_t = -H), and c04 = g/W^3
+ * (w = 1 there). */
+static void sl_lift(const struct sl_sys *S, const double X[3], double ppar, double y[6], double *c04)
+{
+    const double R2 = X[0] * X[0] + X[1] * X[1], r2 = R2 + X[2] * X[2], r = sqrt(r2);
+    const double s = X[2] / r, W = 1.0 - s * s, L = r * r2 / R2, T = 1.0 + 3.0 * s * s, g = sqrt(T);
+    const double mc = S->m * GC_C, Q = (S->k > 0 ? 1.0 : -1.0) * ppar * g / mc;
+    const double beta = 2.0 * S->mu * fabs(S->k) / (mc * GC_C * L * L * L);
+    const double w = -mc * L * L / (S->q * S->k);
+    y[0] = atan2(X[1], X[0]) - w * 2.0 * s * W * Q / T;
+    y[1] = s, y[2] = 0.0, y[3] = -S->q * S->k / L, y[4] = mc * L * Q;
+    y[5] = -S->m * GC_C * GC_C * sqrt(1.0 + Q * Q / T + beta * g / (W * W * W));
+    *c04 = g / (W * W * W);
+}
+
+/* |M^T J M - J| of the one-s-step map (6 x 6, pairs (phi', P_phi), (s,
+ * P_s), (t, p_t)), M by central differences over 1e-5 of each scale, scale
+ * free as test_gc_sundman.c's sd_residual (truncation ~1e-10, round-off
+ * 1e-16/1e-5 = 1e-11: the floor is ~1e-10; 1e-8 asserted).  naive: the
+ * plain step of size w(s0) ds from the state. */
+static double sl_residual(const struct sl_sys *S, int stages, double c04, const double y0[6],
+                          double ds, const double sc[6], int naive)
+{
+    double M[6][6];
+    for (int j = 0; j < 6; j++) {
+        double y1p[6], y1m[6], H;
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            double y[6];
+            memcpy(y, y0, sizeof y);
+            y[j] += sgn * 1e-5 * sc[j];
+            if (gcp_sundman_dipole_step(S->k, S->q, S->m, S->mu, c04, stages, ds, naive, y, &H))
+                return NAN;
+            memcpy(sgn > 0 ? y1p : y1m, y, sizeof y);
+        }
+        for (int i = 0; i < 6; i++) M[i][j] = (y1p[i] - y1m[i]) / (2e-5 * sc[j]);
+    }
+    double res = 0.0;
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < 6; j++) {
+            double r = (j == i + 3) ? -1.0 : (i == j + 3) ? 1.0 : 0.0;
+            for (int a = 0; a < 3; a++) r += M[a][i] * M[a + 3][j] - M[a + 3][i] * M[a][j];
+            const double ai = sc[i % 3] * sc[i % 3 + 3], aj = sc[j % 3] * sc[j % 3 + 3];
+            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(ai * aj));
+        }
+    return res;
+}
+
+/* For ds = T_b/30 .. T_b/240 (gl2 and gl4, the electrons mirroring at 63
+ * and 82 deg, started a tenth of a bounce from the equator by gc-rk8pd):
+ * the residual stays at the floor (< 1e-8) at every ds, while the step
+ * from the state is far above it (> 1e-6, 100x the bound): the test can
+ * fail. */
+Test(gc_sundman_line, extended_map_is_symplectic, .timeout = 60)
+{
+    const double a_deg[2] = {4.0, SL_PITCH_82};
+    for (int o = 0; o < 2; o++) {
+        struct sl_sys S;
+        sl_dipole(&S, a_deg[o]);
+        double X[3] = {S.X[0], S.X[1], S.X[2]}, pp = S.ppar, t = 0.0;
+        const struct gcp_push_opts op = {0.0, S.Tb / 1000, 100, 0.0, 0.0};
+        cr_assert_eq(gcp_gc_push(S.f, &gcp_pusher_gc_rk8pd, S.q, S.m, &op, &t, X, &pp, S.mu, NULL,
+                                 NULL), 0);
+        double y[6], c04;
+        sl_lift(&S, X, pp, y, &c04);
+        const double r = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
+        const double ptot = gc_p_of_T(1e6 * GCP_E_CHARGE, S.m);
+        const double L = -S.q * S.k / y[3];
+        const double sc[6] = {1.0, 0.1, S.Tb, fabs(y[3]), ptot * L, 1e6 * GCP_E_CHARGE};
+        (void)r;
+        for (int st = 1; st <= 2; st++)
+            for (int N = 30; N <= 240; N *= 2) {
+                const double res = sl_residual(&S, st, c04, y, S.Tb / N, sc, 0);
+                const double naive = sl_residual(&S, st, c04, y, S.Tb / N, sc, 1);
+                cr_log_info("mirror %.1f deg, %s ds = T_b/%d: extended residual %.2e, naive step "
+                            "from the state %.2e", S.latm * 180 / GCP_PI, st == 1 ? "gl2" : "gl4",
+                            N, res, naive);
+                cr_expect(res < 1e-8, "mirror %.1f s %d N %d: residual %.2e",
+                          S.latm * 180 / GCP_PI, st, N, res);
+                cr_expect(naive > 1e-6, "mirror %.1f s %d N %d: naive residual %.2e: test cannot "
+                          "fail", S.latm * 180 / GCP_PI, st, N, naive);
+            }
+        gcp_field_free(S.f);
+    }
+}
+
+/* Least-squares trend (over the run) and range of the kinetic-energy
+ * error of nsteps s-steps of ds from the 82-deg electron's start. */
+static void sl_energy_run(const struct sl_sys *S, int64_t nsteps, double ds, int naive,
+                          double *trend, double *range, double *bounces)
+{
+    double y[6], c04;
+    sl_lift(S, S->X, S->ppar, y, &c04);
+    const double mc2 = S->m * GC_C * GC_C, E0 = -y[5] - mc2;
+    double n = 0, st = 0, se = 0, stt = 0, ste = 0, emin = INFINITY, emax = -INFINITY;
+    for (int64_t k = 0; k < nsteps; k++) {
+        double H;
+        cr_assert_eq(gcp_sundman_dipole_step(S->k, S->q, S->m, S->mu, c04, 2, ds, naive, y, &H), 0,
+                     "step %lld", (long long)k);
+        const double e = (H - mc2) / E0 - 1.0, t = y[2];
+        n += 1, st += t, se += e, stt += t * t, ste += t * e;
+        emin = fmin(emin, e), emax = fmax(emax, e);
+    }
+    *trend = fabs((n * ste - st * se) / (n * stt - st * st)) * y[2];
+    *range = emax - emin;
+    *bounces = y[2] / S->Tb;
+}
+
+/* SL_LONG s-steps of gl4 at ds = T_b/40 on the electron mirroring at 82
+ * deg (test_gc_sundman.c's long run, in the line coordinates).  The energy
+ * error of a symplectic map oscillates with no secular part: a line fitted
+ * to a bounded signal of range A over N periods picks up ~A/N, plus the
+ * round-off random walk (~1e-16 sqrt(N steps) ~ 1e-13): the trend must
+ * stay below 1e-3 A.  The same steps chosen from the state (the plain step
+ * of size w(s0) ds) over SL_NAIVE steps must drift: trend > 1e-3 A. */
+#define SL_LONG 2000000
+#define SL_NAIVE 50000
+Test(gc_sundman_line, energy_bounded_long_run, .timeout = 120)
+{
+    struct sl_sys S;
+    sl_dipole(&S, SL_PITCH_82);
+    double trend, range, bounces;
+    sl_energy_run(&S, SL_LONG, S.Tb / 40, 0, &trend, &range, &bounces);
+    cr_log_info("gl4-sundman (line) %d s-steps (%.0f bounces): energy range %.2e, trend %.2e "
+                "(%.1e of range)", SL_LONG, bounces, range, trend, trend / range);
+    cr_expect(trend < 1e-3 * range, "trend %.2e range %.2e", trend, range);
+    sl_energy_run(&S, SL_NAIVE, S.Tb / 40, 1, &trend, &range, &bounces);
+    cr_log_info("naive step from the state %d steps (%.0f bounces): energy range %.2e, trend "
+                "%.2e (%.1e of range)", SL_NAIVE, bounces, range, trend, trend / range);
+    cr_expect(trend > 1e-3 * range, "naive steps: no drift seen (trend %.2e, range %.2e): the "
+              "test cannot tell", trend, range);
+    gcp_field_free(S.f);
+}
+
+/* ---- slicing ---- */
+
+static uint64_t rs;
+static double urand(void)
+{
+    rs = rs * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(rs >> 11) * 0x1.0p-53;
+}
+
+#define NL 150
+#define NST 1500
+
+struct rec {
+    int calls;
+};
+static void count(const struct gcp_block *b, double t, void *ctx)
+{
+    (void)b, (void)t;
+    ((struct rec *)ctx)->calls++;
+}
+
+/* test_gc_dipole_line.c's scene: NL protons or electrons, trapped (L = 2
+ * .. 6.2), every 7th inside the loss cone (precipitates), every 9th proton
+ * of 50-200 MeV (non-adiabatic at amax = 0.1). */
+static void fill(struct gcp_block *b, const struct gcp_field *f, int el)
+{
+    rs = 0x243F6A8885A308D3ull + (uint64_t)el;
+    b->q = el ? -GCP_E_CHARGE : GCP_E_CHARGE, b->m = el ? GCP_M_ELECTRON : GCP_M_PROTON;
+    for (size_t i = 0; i < NL; i++) {
+        const double L = 2.0 + 4.2 * urand(), lon = 2.0 * GCP_PI * urand();
+        const int hot = !el && (i % 9 == 0);
+        const double T = (hot ? 5e7 : 1e5) * GCP_E_CHARGE * pow(hot ? 4.0 : 100.0, urand());
+        const double a = (i % 7 == 0 ? 3.0 + 5.0 * urand() : 20.0 + 70.0 * urand()) * GCP_PI / 180.0;
+        const double lat = 0.3 * (urand() - 0.5);
+        const double s = sin(lat), W = 1.0 - s * s, R = L * GC_RE * W * sqrt(W);
+        b->x[i] = R * cos(lon), b->y[i] = R * sin(lon), b->z[i] = L * GC_RE * W * s;
+        const double X[3] = {b->x[i], b->y[i], b->z[i]};
+        const double p = gc_p_of_T(T, b->m);
+        b->ppar[i] = p * cos(a) * (i % 2 ? 1.0 : -1.0);
+        b->mu[i] = p * sin(a) * p * sin(a) / (2.0 * b->m * gc_Bmag(f, X));
+        b->status[i] = 0, b->steps[i] = 0, b->t[i] = 0.0, b->index[i] = i;
+    }
+    b->n_active = NL;
+}
+
+/* Sampled every step, every 7 steps and never: the same state, time and
+ * status bits for every lane; the steps differ by the landings only (one
+ * per sampling interval: a lane alive at the end took NST/every - 1 more
+ * than unsampled). */
+Test(gc_sundman_line, slicing_leaves_the_numbers, .timeout = 120)
+{
+    struct gcp_field *f = gcp_field_dipole_create(GC_B0, 0, GC_RE + 100e3, 0.0);
+    f->r_outer = 6.2 * GC_RE;
+    const struct gcp_pusher_type *P[2] = {&gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman};
+    for (int pk = 0; pk < 2; pk++)
+        for (int el = 0; el < 2; el++) {
+            struct gcp_block b[3];
+            const int64_t every[3] = {0, 1, 7};
+            struct rec r[3] = {{0}, {0}, {0}};
+            for (int v = 0; v < 3; v++) {
+                cr_assert_eq(gcp_block_alloc(&b[v], NL), 0);
+                fill(&b[v], f, el);
+                /* ds ~ 1/30 of a 1 MeV proton's bounce at L = 4 (electrons: 1/30 of 3 ms) */
+                const struct gcp_push_opts o = {0.0, el ? 1e-4 : 0.05, NST, 0.0, 0.1};
+                const struct gcp_sampler smp = {every[v], count, &r[v]};
+                P[pk]->advance(&b[v], f, P[pk], &o, every[v] ? &smp : NULL);
+            }
+            size_t stopped = 0;
+            int kinds[16] = {0};
+            /* lanes retire at the end of the slice they stop in, so their
+             * order differs: compared by index */
+            size_t at[3][NL];
+            for (int v = 0; v < 3; v++)
+                for (size_t i = 0; i < NL; i++) at[v][b[v].index[i]] = i;
+            for (size_t id = 0; id < NL; id++) {
+                const size_t i = at[0][id];
+                stopped += b[0].status[i] != GCP_ALIVE;
+                if (b[0].status[i] >= 0 && b[0].status[i] < 16) kinds[b[0].status[i]]++;
+                for (int v = 1; v < 3; v++) {
+                    const size_t j = at[v][id];
+                    cr_expect_eq(b[v].status[j], b[0].status[i], "%s lane %zu: status %d vs %d, t %.17g vs %.17g, steps %lld vs %lld", P[pk]->name, id, b[v].status[j], b[0].status[i], b[v].t[j], b[0].t[i], (long long)b[v].steps[j], (long long)b[0].steps[i]);
+                    if (b[0].status[i] == GCP_ALIVE)
+                        cr_expect_eq(b[v].steps[j], b[0].steps[i] + (NST + every[v] - 1) / every[v] - 1,
+                                     "%s lane %zu: steps", P[pk]->name, id);
+                    cr_expect(b[v].t[j] == b[0].t[i], "%s lane %zu: t", P[pk]->name, id);
+                    cr_expect(b[v].x[j] == b[0].x[i] && b[v].y[j] == b[0].y[i] &&
+                                  b[v].z[j] == b[0].z[i] && b[v].ppar[j] == b[0].ppar[i],
+                              "%s lane %zu (every %lld): state differs", P[pk]->name, id,
+                              (long long)every[v]);
+                }
+            }
+            cr_log_info("%s %s: %zu of %d stopped (precipitated %d, left %d, non-adiabatic %d, "
+                        "failed %d), samples %d / %d", P[pk]->name, el ? "e-" : "p+", stopped, NL,
+                        kinds[GCP_PRECIPITATED], kinds[GCP_LEFT_DOMAIN], kinds[GCP_NONADIABATIC],
+                        kinds[GCP_STEP_FAILED], r[1].calls, r[2].calls);
+            cr_expect(stopped >= 10 && stopped < NL, "%s: %zu stopped", P[pk]->name, stopped);
+            cr_expect(kinds[GCP_PRECIPITATED] > 0, "%s: none precipitated", P[pk]->name);
+            if (!el) cr_expect(kinds[GCP_NONADIABATIC] > 0, "%s: none non-adiabatic", P[pk]->name);
+            cr_expect_eq(r[1].calls, NST);
+            for (int v = 0; v < 3; v++) gcp_block_free(&b[v]);
+        }
+    gcp_field_free(f);
+}
