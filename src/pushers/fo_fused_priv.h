@@ -155,7 +155,7 @@ struct gcp_fo_fused {
     {                                                                                           \
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
-        double G[GCP_FO_TILE], hg[GCP_FO_TILE], K[4][SPLIT_ ? GCP_FO_TILE : 1];                 \
+        _Alignas(64) double G[GCP_FO_TILE], hg[GCP_FO_TILE], K[4][SPLIT_ ? GCP_FO_TILE : 8];   \
         (void)q, (void)m, (void)dt, (void)G;                                                    \
         if (hg_mode & GCP_FO_HG_IN) {                                                           \
             for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
