@@ -54,25 +54,43 @@ static inline GCP_HD double gcp_gamma_of_u(double ux, double uy, double uz)
 }
 
 /* The magnetic rotation of Boris's scheme, u- -> u+ in place (qdt2m =
- * q dt / 2m): t = qdt2m B / gamma(u-), s = 2 t / (1 + t^2),
- * u' = u- + u- x t, u+ = u- + u' x s; inv_gamma = 1/gamma(u-) given (a
+ * q dt / 2m): t = qdt2m B / gamma(u-), s = 2 / (1 + t^2),
+ * u' = u- + u- x t, u+ = u- + s (u' x t); inv_gamma = 1/gamma(u-) given (a
  * caller that has gamma(u-) already, as the fused step of a pure magnetic
- * field does from the previous step's drift, saves a sqrt). */
-static inline GCP_HD void gcp_boris_rotate_ig_(double *ux, double *uy, double *uz, double Bx,
-                                               double By, double Bz, double qdt2m,
-                                               double inv_gamma)
+ * field does from the previous step's drift, saves a sqrt).  In two
+ * parts: t and s (from B and gamma alone), then the rotation by them; a
+ * caller that computes t and s in one loop and rotates in another (the
+ * fused tiles, fo_fused_priv.h: two short dependency chains instead of one
+ * long one) gets the same bits as gcp_boris_rotate_ig_. */
+static inline GCP_HD void gcp_boris_ts_(double Bx, double By, double Bz, double qdt2m,
+                                        double inv_gamma, double *tx, double *ty, double *tz,
+                                        double *s)
+{
+    const double a = qdt2m * inv_gamma;
+    const double x = a * Bx, y = a * By, z = a * Bz;
+    *tx = x, *ty = y, *tz = z;
+    *s = 2.0 / (1.0 + x * x + y * y + z * z);
+}
+
+static inline GCP_HD void gcp_boris_rotate_ts_(double *ux, double *uy, double *uz, double tx,
+                                               double ty, double tz, double s)
 {
     const double umx = *ux, umy = *uy, umz = *uz;
-    const double tx = qdt2m * inv_gamma * Bx;
-    const double ty = qdt2m * inv_gamma * By;
-    const double tz = qdt2m * inv_gamma * Bz;
-    const double s = 2.0 / (1.0 + tx * tx + ty * ty + tz * tz);
     const double upx = umx + (umy * tz - umz * ty);
     const double upy = umy + (umz * tx - umx * tz);
     const double upz = umz + (umx * ty - umy * tx);
     *ux = umx + s * (upy * tz - upz * ty);
     *uy = umy + s * (upz * tx - upx * tz);
     *uz = umz + s * (upx * ty - upy * tx);
+}
+
+static inline GCP_HD void gcp_boris_rotate_ig_(double *ux, double *uy, double *uz, double Bx,
+                                               double By, double Bz, double qdt2m,
+                                               double inv_gamma)
+{
+    double tx, ty, tz, s;
+    gcp_boris_ts_(Bx, By, Bz, qdt2m, inv_gamma, &tx, &ty, &tz, &s);
+    gcp_boris_rotate_ts_(ux, uy, uz, tx, ty, tz, s);
 }
 
 /* The rotation with inv_gamma = 1/gamma(u-) computed by the caller (the

@@ -5,7 +5,16 @@
 #include "gcpush/pusher.h"
 #include "fo_fused_priv.h"
 
-GCP_FO_FUSED_DEFINE(boris, gcp_push_boris, gcp_push_boris_B_ig, 1)
+/* The fused tiles in pure B: t and s of the rotation (kernels.h
+ * gcp_boris_ts_, from B and 1/gamma alone) in the tile's first loop with
+ * the field, the rotation by them in the second (fo_fused_priv.h): the
+ * operations of gcp_push_boris_B_ig, bit for bit, with the division for s
+ * beside the field's instead of in the kick's dependency chain. */
+#define BORIS_STASH_                                                                            \
+    gcp_boris_ts_(bx, by, bz, 0.5 * q * dt / m, IG0, &K[0][i], &K[1][i], &K[2][i], &K[3][i])
+#define BORIS_KICK2_ gcp_boris_rotate_ts_(&U, &V, &W, K[0][i], K[1][i], K[2][i], K[3][i])
+GCP_FO_FUSED_DEFINE_SPLIT_(boris, gcp_push_boris, gcp_push_boris_B_ig, 1, BORIS_STASH_,
+                           BORIS_KICK2_)
 
 const struct gcp_pusher_type gcp_pusher_boris = {
     .name = "boris",

@@ -107,12 +107,47 @@ struct gcp_fo_fused {
 #define GCP_FO_B_DIPOLE_(X, Y, Z, BX, BY, BZ) gcp_point_B_dipole(a->p[0], X, Y, Z, &BX, &BY, &BZ)
 #define GCP_FO_B_UNIFORM_(X, Y, Z, BX, BY, BZ) (BX = a->p[0], BY = a->p[1], BZ = a->p[2])
 
-/* One tile function: FORM_ is the B macro above, KICK_ a statement on the
- * lane's U, V, W with bx, by, bz (and the form's E).  With CARRY_ = 1 the
- * kick gets 1/gamma(u) as 1.0 / G0, G0 = gamma(u) kept per lane from the
- * previous step's drift factor (the same sqrt of the same u: bit-identical,
- * one sqrt a step fewer; only without E, where the kick's u- is u). */
-#define GCP_FO_TILE_DEFINE_(FNAME, FORM_, KICK_, CARRY_)                                        \
+/* The two halves of a lane's step (GCP_FO_TILE_DEFINE_): the half drift
+ * to X_, Y_, Z_, IG0 and the field there; the kick from the point XS, YS,
+ * ZS, the second half drift and the stop test. */
+#define GCP_FO_LANE1_(FORM_, CARRY_)                                                            \
+    const double g0_ = hg[i];                                                                   \
+    const double X_ = x[i] + ux[i] * g0_, Y_ = y[i] + uy[i] * g0_, Z_ = z[i] + uz[i] * g0_;     \
+    const double IG0 = CARRY_ ? 1.0 / G[i] : 1.0;                                               \
+    (void)IG0;                                                                                  \
+    double bx, by, bz;                                                                          \
+    FORM_(X_, Y_, Z_, bx, by, bz);
+#define GCP_FO_LANE2_(KICK_, CARRY_, XS, YS, ZS)                                                \
+    double U = ux[i], V = uy[i], W = uz[i];                                                     \
+    const double X = XS, Y = YS, Z = ZS;                                                        \
+    KICK_;                                                                                      \
+    const double G1 = gcp_gamma_of_u(U, V, W);                                                  \
+    if (CARRY_) G[i] = G1;                                                                      \
+    const double g1 = h / G1;                                                                   \
+    const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                             \
+    x[i] = X1, y[i] = Y1, z[i] = Z1;                                                            \
+    ux[i] = U, uy[i] = V, uz[i] = W;                                                            \
+    hg[i] = g1;                                                                                 \
+    const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                              \
+    const double u2 = U * U + V * V + W * W;                                                    \
+    any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);
+
+/* One tile function: FORM_ is the B macro above; each step is two loops
+ * over the tile's lanes.  The first makes the half drift, the field and
+ * what the kick needs of them: STASH_, a statement on bx, by, bz and IG0
+ * storing up to 4 numbers a lane in K[0..3][i]; the second the kick, KICK_,
+ * a statement on the lane's U, V, W and K[.][i] (and the form's E), the
+ * second half drift and the stop test.  One loop did it all before: a
+ * step's chain of dependent square roots and divisions (r, c/r^5, s,
+ * gamma+, h/gamma+) was longer than the out-of-order window could hide,
+ * and the tile ran at ~1.9x the cost of those operations alone
+ * (tests/bench/bench_floor.c); two loops each carry half of the chain,
+ * and the lanes of a loop overlap.  The same operations on the same
+ * values: bit-identical.  With CARRY_ = 1, IG0 = 1 / G0, G0 = gamma(u)
+ * kept per lane from the previous step's drift factor (the same sqrt of
+ * the same u: bit-identical, one sqrt a step fewer; only without E, where
+ * the kick's u- is u); else IG0 = 1. */
+#define GCP_FO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, SPLIT_)                       \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
                          double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
@@ -120,7 +155,7 @@ struct gcp_fo_fused {
     {                                                                                           \
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
-        double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                                 \
+        _Alignas(64) double G[GCP_FO_TILE], hg[GCP_FO_TILE], K[4][SPLIT_ ? GCP_FO_TILE : 8];   \
         (void)q, (void)m, (void)dt, (void)G;                                                    \
         if (hg_mode & GCP_FO_HG_IN) {                                                           \
             for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
@@ -136,25 +171,23 @@ struct gcp_fo_fused {
         int64_t s = 0;                                                                          \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
-            for (size_t i = 0; i < nt; i++) {                                                   \
-                double U = ux[i], V = uy[i], W = uz[i];                                         \
-                const double g0 = hg[i];                                                        \
-                const double G0 = CARRY_ ? G[i] : 1.0;                                          \
-                (void)G0;                                                                       \
-                const double X = x[i] + U * g0, Y = y[i] + V * g0, Z = z[i] + W * g0;           \
-                double bx, by, bz;                                                              \
-                FORM_(X, Y, Z, bx, by, bz);                                                     \
-                KICK_;                                                                          \
-                const double G1 = gcp_gamma_of_u(U, V, W);                                      \
-                if (CARRY_) G[i] = G1;                                                          \
-                const double g1 = h / G1;                                                       \
-                const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                 \
-                x[i] = X1, y[i] = Y1, z[i] = Z1;                                                \
-                ux[i] = U, uy[i] = V, uz[i] = W;                                                \
-                hg[i] = g1;                                                                     \
-                const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
-                const double u2 = U * U + V * V + W * W;                                        \
-                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
+            if (SPLIT_) {                                                                       \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    GCP_FO_LANE1_(FORM_, CARRY_)                                                \
+                    x[i] = X_, y[i] = Y_, z[i] = Z_;                                            \
+                    STASH_;                                                                     \
+                }                                                                               \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];       \
+                    (void)bx, (void)by, (void)bz, (void)IG0;                                    \
+                    GCP_FO_LANE2_(KICK_, CARRY_, x[i], y[i], z[i])                              \
+                }                                                                               \
+            } else {                                                                            \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    GCP_FO_LANE1_(FORM_, CARRY_)                                                \
+                    (void)K;                                                                    \
+                    GCP_FO_LANE2_(KICK_, CARRY_, X_, Y_, Z_)                                    \
+                }                                                                               \
             }                                                                                   \
             if (any) {                                                                          \
                 *stopped = 1;                                                                   \
@@ -166,6 +199,10 @@ struct gcp_fo_fused {
             for (size_t i = 0; i < nt; i++) hg_io[i] = hg[i];                                   \
         return s;                                                                               \
     }
+
+/* The plain stash: B and IG0, which the second loop reads back as bx, by,
+ * bz and IG0 for its kick. */
+#define GCP_FO_STASH_B_ (K[0][i] = bx, K[1][i] = by, K[2][i] = bz, K[3][i] = IG0)
 
 /* The observer's per-step work of one lane after its step (x, u the
  * lane's new state): the first-order guiding centre of
@@ -244,8 +281,8 @@ struct gcp_fo_fused {
             for (size_t i = 0; i < nt; i++) {                                                   \
                 double U = ux[i], V = uy[i], W = uz[i];                                         \
                 const double g0 = hg[i];                                                        \
-                const double G0 = CARRY_ ? G[i] : 1.0;                                          \
-                (void)G0;                                                                       \
+                const double IG0 = CARRY_ ? 1.0 / G[i] : 1.0;                                   \
+                (void)IG0;                                                                      \
                 const double X = x[i] + U * g0, Y = y[i] + V * g0, Z = z[i] + W * g0;           \
                 double bx, by, bz;                                                              \
                 FORM_(X, Y, Z, bx, by, bz);                                                     \
@@ -331,16 +368,20 @@ struct gcp_fo_fused {
  * (the pusher's kick_B, or KICK with literal zeros: the same numbers as the
  * zeroed E arrays of the block step), or with CARRY = 1
  * KICK_B(..., dt, inv_gamma) (gcp_push_boris_B_ig).  Defines
- * gcp_fo_fused_NAME_. */
+ * gcp_fo_fused_NAME_.  GCP_FO_FUSED_DEFINE_SPLIT_ takes the B tiles' stash
+ * and kick (GCP_FO_TILE_DEFINE_) as given: a kick that computes part of
+ * its work from B and gamma alone can do it in the first loop
+ * (gcp_fo_fused_boris_, src/pushers/boris.c). */
 #define GCP_FO_IG_0_
-#define GCP_FO_IG_1_ , 1.0 / G0
-#define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_,                                 \
-                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_,                               \
-                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_,                              \
-                        KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0)   \
+#define GCP_FO_IG_1_ , IG0
+#define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_)             \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, 1)   \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, GCP_FO_STASH_B_,              \
+                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY,   \
+                        0)                                                                      \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, GCP_FO_STASH_B_,             \
+                        KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0,   \
+                        0)                                                                      \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_,                            \
                         KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_,                          \
@@ -350,6 +391,9 @@ struct gcp_fo_fused {
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}},                          \
         .gyro = {[GCP_POINT_B_UNIFORM] = NAME##_gyro_uniform_B,                                 \
                  [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B}};
+#define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
+    GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, GCP_FO_STASH_B_,                      \
+                               KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_))
 
 /* ---- Newtonian pushers (u = v: boris-nr) --------------------------------
  *
