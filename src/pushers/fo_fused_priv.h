@@ -461,7 +461,14 @@ static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *
                  Z1 = GCP_NR_FMA_(W0 + W, h, z[i]);                                             \
     x[i] = X1, y[i] = Y1, z[i] = Z1;                                                            \
     ux[i] = U, uy[i] = V, uz[i] = W;
-#define GCP_FO_NR_TILE_DEFINE_(FNAME, FORM_, KICK_, FREE_, EMAG_, BMAG_)                        \
+/* SPLIT_ = 1 (the dipole): each checked step is two loops over the tile's
+ * lanes, the field at x_1/2 into K first, then the lane's step with the
+ * field read back (FORM2_ = GCP_FO_B_STASHED_): the field's sqrt and
+ * division and the kick's division are then in separate dependency chains
+ * whose lanes overlap, as in the relativistic tiles above; the same
+ * operations on the same values, bit-identical. */
+#define GCP_FO_B_STASHED_(X, Y, Z, BX, BY, BZ) (BX = K[0][i], BY = K[1][i], BZ = K[2][i])
+#define GCP_FO_NR_TILE_DEFINE_(FNAME, FORM_, KICK_, FREE_, EMAG_, BMAG_, SPLIT_, FORM2_)        \
     /* one unchecked step of the tile: a function of its own, so that the    \
      * compiler keeps the lanes innermost (it interchanges a bare loop nest   \
      * and then vectorises neither loop) */                                   \
@@ -489,11 +496,23 @@ static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *
             FNAME##_free_(x, y, z, ux, uy, uz, nt, kmax, a);                                    \
             return kmax;                                                                        \
         }                                                                                       \
+        _Alignas(64) double K[3][SPLIT_ ? GCP_FO_TILE : 8];                                     \
+        (void)K;                                                                                \
         int64_t s = 0;                                                                          \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
+            if (SPLIT_)                                                                         \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    const double X = GCP_NR_FMA_(ux[i], h, x[i]);                               \
+                    const double Y = GCP_NR_FMA_(uy[i], h, y[i]);                               \
+                    const double Z = GCP_NR_FMA_(uz[i], h, z[i]);                               \
+                    double bx, by, bz;                                                          \
+                    (void)X, (void)Y, (void)Z;                                                  \
+                    FORM_(X, Y, Z, bx, by, bz);                                                 \
+                    K[0][i] = bx, K[1][i] = by, K[2][i] = bz;                                   \
+                }                                                                               \
             for (size_t i = 0; i < nt; i++) {                                                   \
-                GCP_FO_NR_LANE_(FORM_, KICK_)                                                   \
+                GCP_FO_NR_LANE_(FORM2_, KICK_)                                                  \
                 const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
                 const double u2 = U * U + V * V + W * W;                                        \
                 any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                          \
@@ -513,13 +532,15 @@ static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *
 #define GCP_FO_ABS3_(P) (fabs((P)[0]) + fabs((P)[1]) + fabs((P)[2]))
 #define GCP_FO_FUSED_DEFINE_NEWTONIAN(NAME, KICK, KICK_B)                                       \
     GCP_FO_NR_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_,                              \
-                           KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 0, 0.0, 0.0)               \
+                           KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 0, 0.0, 0.0, 1,            \
+                           GCP_FO_B_STASHED_)                                                   \
     GCP_FO_NR_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_,                            \
                            KICK_B(&U, &V, &W, bx, by, bz, q, m, dt), 1, 0.0,                    \
-                           GCP_FO_ABS3_(a->p))                                                  \
+                           GCP_FO_ABS3_(a->p), 0, GCP_FO_B_UNIFORM_)                            \
     GCP_FO_NR_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_,                           \
                            KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt),   \
-                           1, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p))                       \
+                           1, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p), 0,                    \
+                           GCP_FO_B_UNIFORM_)                                                   \
     static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
         .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}}};
