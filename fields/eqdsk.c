@@ -507,6 +507,18 @@ static double eqdsk_profile(const struct gcp_field *f, int c, double psiN)
 double gcp_field_eqdsk_q(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 1, psiN); }
 double gcp_field_eqdsk_F(const struct gcp_field *f, double psiN) { return eqdsk_profile(f, 0, psiN); }
 
+/* psi and its first and second derivatives in (R, Z) [Wb/rad, /m, /m^2]
+ * from the spline's output of the file's psi, times sp = s_pol (gcpush's sign). */
+static void psi_out(double sp, const struct gcp_spl_out *o, double out[6])
+{
+    out[0] = sp * o->f;
+    out[1] = sp * o->d[0];
+    out[2] = sp * o->d[1];
+    out[3] = sp * o->dd[0][0];
+    out[4] = sp * o->dd[0][1];
+    out[5] = sp * o->dd[1][1];
+}
+
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
  * (fields/flux_priv.h), from the same spline as eval. */
 #include "flux_priv.h"
@@ -520,13 +532,7 @@ int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[
     struct gcp_spl_out o;
     const int outside = gcp_spl_locate(&e->psi, p, 2, &loc);
     gcp_spl_eval(&e->psi, &loc, 0, 2, &o);
-    const double sp = e->s_pol;
-    out[0] = sp * o.f;
-    out[1] = sp * o.d[0];
-    out[2] = sp * o.d[1];
-    out[3] = sp * o.dd[0][0];
-    out[4] = sp * o.dd[0][1];
-    out[5] = sp * o.dd[1][1];
+    psi_out(e->s_pol, &o, out);
     return outside ? GCP_LEFT_GRID : 0;
 }
 
@@ -567,13 +573,7 @@ int gcp_eqdsk_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out
         outside = gcp_spl_locate(&e->psi, p, 2, &loc);
         gcp_spl_eval(&e->psi, &loc, 0, 2, &o);
     }
-    const double sp = e->s_pol;
-    out[0] = sp * o.f;
-    out[1] = sp * o.d[0];
-    out[2] = sp * o.d[1];
-    out[3] = sp * o.dd[0][0];
-    out[4] = sp * o.dd[0][1];
-    out[5] = sp * o.dd[1][1];
+    psi_out(e->s_pol, &o, out);
     s->need = GCP_NEED_B | GCP_NEED_GRADB;
     eqdsk_B_of(e, &o, R, Z, c, sn, 1, s);
     *fst = outside ? GCP_LEFT_GRID : 0;

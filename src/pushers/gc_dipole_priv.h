@@ -42,6 +42,35 @@ __attribute__((visibility("hidden"))) int gcp_dgl_args(struct dgl_args *A,
                                                        const struct gcp_field *f,
                                                        const struct gcp_push_opts *o);
 
+/* A guiding centre at (x, y, z), p_par [kg m/s], mu [J/T] lifted to the
+ * line coordinates (gc_gauss_dipole.c's header):
+ *   s = z/r, L = r^3/R^2, Q = sgn(k) p_par g/(m c), beta = 2 mu |k|/(m c^2 L^3),
+ *   w = -m c L^2/(q k), phi' = atan2(y, x) - w 2 s W Q/T,
+ *   p2 = gamma^2 - 1 = Q^2/T + beta g/W^3,  gW3 = g/W^3,
+ * T = 1 + 3 s^2, g = sqrt(T), W = 1 - s^2 (as dgl_point forms it, so that
+ * phi' maps back to the same phi).  The fixed step (dgl_init) and the
+ * Sundman form (sdl_init) start from it.  0, or -1 off the chart (on the
+ * axis, not finite). */
+struct dgl_lift {
+    double s, L, Q, beta, w, phip, p2, gW3;
+};
+static inline int dgl_lift_of(const struct dgl_args *A, double x, double y, double z,
+                              double ppar, double mu, struct dgl_lift *o)
+{
+    const double R2 = x * x + y * y, r2 = R2 + z * z, r = sqrt(r2);
+    if (!(R2 > 0.0) || !(r2 <= DBL_MAX) || !isfinite(ppar) || !isfinite(mu)) return -1;
+    const double s = z / r, W = 1.0 - s * s, L = r * r2 / R2;
+    const double T = 1.0 + 3.0 * s * s, g = sqrt(T);
+    o->s = s, o->L = L;
+    o->Q = A->sgk * ppar * g / A->mc;
+    o->beta = 2.0 * mu * fabs(A->k) / (A->m * GCP_C_LIGHT * GCP_C_LIGHT * L * L * L);
+    o->w = -A->mc * L * L / (A->q * A->k);
+    o->phip = atan2(y, x) - o->w * 2.0 * s * W * o->Q / T;
+    o->p2 = o->Q * o->Q / T + o->beta * g / (W * W * W);
+    o->gW3 = g / (W * W * W);
+    return 0;
+}
+
 /* The reduced Hamiltonian's derivatives at (s, Q): F = (ds, dQ)/dtau, its
  * Jacobian D (D22 = -D11), the phi' rate P with its gradient (Ps, PQ), and
  * gamma.  See gc_gauss_dipole.c's header for the formulas; Gamma_ss from

@@ -277,23 +277,16 @@ static int sdl_init(const struct gcp_evolve *ev, void *vctx, const struct gcp_bl
     const struct dgl_args *A = &c->A;
     struct sdl_lane *l = vlane;
     memset(l, 0, sizeof *l);
-    const double x = b->x[i], y = b->y[i], z = b->z[i];
-    const double R2 = x * x + y * y, r2 = R2 + z * z, r = sqrt(r2);
-    if (!(R2 > 0.0) || !(r2 <= DBL_MAX) || !isfinite(b->ppar[i]) || !isfinite(b->mu[i]))
+    struct dgl_lift z;
+    if (dgl_lift_of(A, b->x[i], b->y[i], b->z[i], b->ppar[i], b->mu[i], &z))
         return gcp_lane_fail((struct gcp_block *)b, i, GCP_FAIL_CHART);
-    const double s = z / r, W = 1.0 - s * s, L = r * r2 / R2;
-    const double T = 1.0 + 3.0 * s * s, g = sqrt(T);
-    l->s = s, l->L = L;
-    l->Q = A->sgk * b->ppar[i] * g / A->mc;
-    l->beta = 2.0 * b->mu[i] * fabs(A->k) / (A->m * GCP_C_LIGHT * GCP_C_LIGHT * L * L * L);
-    l->w = -A->mc * L * L / (A->q * A->k);
-    l->cL = GCP_C_LIGHT / L;
+    l->s = z.s, l->L = z.L, l->Q = z.Q, l->beta = z.beta, l->w = z.w, l->phip = z.phip;
+    l->cL = GCP_C_LIGHT / z.L;
     l->hg = c->ds * l->cL;
-    l->phip = atan2(y, x) - l->w * 2.0 * s * W * l->Q / T;
-    const double p2 = l->Q * l->Q / T + l->beta * g / (W * W * W);
-    l->iqsc = p2 > 0.0 ? 1.0 / sqrt(p2) : 1.0;
-    l->pi = -sqrt(1.0 + p2);
-    l->c04 = g / (W * W * W);
+    l->iqsc = z.p2 > 0.0 ? 1.0 / sqrt(z.p2) : 1.0;
+    l->pi = -sqrt(1.0 + z.p2);
+    l->c04 = z.gW3;
+    const double s = z.s;
     l->t = ev->o->t0;
     for (int n = 0; n <= GL_SMAX; n++) l->hist[n][0] = s, l->hist[n][1] = l->Q;
     l->have = 0.0;
