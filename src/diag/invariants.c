@@ -605,7 +605,7 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     double *const *r = o->hot.r[o->hot.cur];
     const double xp[3] = {ring ? r[1][li] : o->xprev[0][li], ring ? r[2][li] : o->xprev[1][li],
                           ring ? r[3][li] : o->xprev[2][li]};
-    const double tp = ring ? r[0][li] : o->tprev[li];
+    const double tp = ring ? o->hot.rt[o->hot.cur] : o->tprev[li];
     struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
     memcpy(e.v, xe, sizeof xe);
     /* the crossing of the sphere r = r_inner (or r_outer) within the last
@@ -690,6 +690,7 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
                 Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
             }
             const int hot = o->gc && !o->hybrid, c = (o->hot.cur + 1) % 3;
+            o->hot.rt[c] = t;
             for (size_t i = 0; i < n; i++) {
                 const size_t li = b->index[i];
                 if (li >= o->nlanes || !o->active[li]) continue;
@@ -742,6 +743,8 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
         gcp_obs_lane_to_hot(o, L, li, o->hot.cur);
+        /* mu of every ring slot: a guiding centre's is constant (invariants_quiet.c gs_put) */
+        for (int k = 0; k < 3; k++) o->hot.r[k][5][li] = b->mu[i];
         o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
         o->tprev[li] = t0;
     }

@@ -108,9 +108,15 @@ struct gcp_observer {
      * every lane -- no copy of s1 into a "previous" array at each step. */
     struct {
         double *r[3][GCP_OBS_RING_NV]; /* t, X[3], ppar, mu, B, p2 and the J integrand jd */
+        /* A slot's time is the same for every lane (its step's t), so it
+         * is rt[slot], not r[slot][0]; and mu is a guiding centre's
+         * constant, written into r[0..2][5] once, at gcp_observer_begin
+         * (gs_put writes neither: invariants_quiet.c) */
+        double rt[3];
         double *J, *mub; /* J_acc, mub */
         double *Bmin;   /* eq_Bmin, or -inf where no equator is wanted */
-        double *tnext;  /* the first cadence time that asks for work (inf: none) */
+        double *tnext;  /* the first cadence time that asks for work (inf: none;
+                           -inf while the lane has no sample: have_s1 = 0) */
         double *cx, *cy; /* the stream contour's cprev, sprev */
         int64_t *have;  /* have_s1 */
         int64_t *next;  /* eq_need_next: the minimum is s1, e0 the sample before it */
