@@ -738,7 +738,7 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         L->s_k = L->d_k = 1;
         gcp_obs_lane_to_hot(o, L, li, o->hot.cur);
         /* mu of every ring slot: a guiding centre's is constant (invariants_quiet.c gs_put) */
-        for (int k = 0; k < 3; k++) o->hot.r[k][5][li] = b->mu[i];
+        for (int k = 0; o->gc && !o->hybrid && k < 3; k++) o->hot.r[k][5][li] = b->mu[i];
         o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
         o->tprev[li] = t0;
     }
