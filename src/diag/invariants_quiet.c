@@ -112,7 +112,7 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * pass writes every lane's sample into the ring's next slot c, quiet or
  * not (a lane that is not gets the same values from lane_to_hot), and
  * leaves the slot before the latest (e0 of a lane whose minimum waits)
- * alone; per lane ~20 loads and ~15 stores, where the pass with a copy of
+ * alone; per lane ~17 loads and ~11 stores (t, mu, have: see gs_put), where the pass with a copy of
  * s1 into a previous-sample array and |B|, p^2, jd through arrays of their
  * own had ~40 and ~30. */
 static inline __attribute__((always_inline)) void
