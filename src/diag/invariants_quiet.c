@@ -112,8 +112,8 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * pass writes every lane's sample into the ring's next slot c, quiet or
  * not (a lane that is not gets the same values from lane_to_hot), and
  * leaves the slot before the latest (e0 of a lane whose minimum waits)
- * alone; per lane ~17 loads and ~11 stores (t, mu, have: see gs_put), where the pass with a copy of
- * s1 into a previous-sample array and |B|, p^2, jd through arrays of their
+ * alone; per lane ~17 loads and ~11 stores (no t, mu or have: gs_put),
+ * where the pass with a copy of s1 into a previous-sample array and |B|, p^2, jd through arrays of their
  * own had ~40 and ~30. */
 static inline __attribute__((always_inline)) void
 stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
