@@ -341,31 +341,23 @@ static void contour_A(const struct gcp_observer *o, double t, const double X[3],
     *Az = A[2];
 }
 
-/* Contour quantities of a position. */
-void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
-                        double *R, double *psi, double *AR, double *Az)
+/* Contour quantities of a position but its azimuth (the caller's:
+ * gcp_obs_azimuth_from), R = |X_perp| as a square root (hypot guards
+ * against an overflow that a position in metres cannot reach). */
+void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *R,
+                        double *psi, double *AR, double *Az)
 {
-    *R = hypot(X[0], X[1]);
-    *phi = atan2(X[1], X[0]);
+    *R = sqrt(X[0] * X[0] + X[1] * X[1]);
     contour_A(o, t, X, *R, psi, AR, Az);
 }
 
-/* The azimuth of b from that of a, wrapped to (-pi, pi]: atan2(a x b, a . b)
- * (z components), which equals wrap(atan2(b) - atan2(a)) up to rounding.
- * The three samples around an equator point are a step apart, a few 1e-4
- * rad of drift azimuth at most, so it is almost always the series
- * atan u = u - u^3/3 + u^5/5 - u^7/7 (u = cross/dot): for |u| < 1e-3 the
- * first term left out, u^9/9, is < 1.2e-25 |u|, below the rounding of u;
- * atan2 elsewhere.  It replaces two of the three atan2 per equator point
- * (~30 ns each; issue 12). */
-static double azimuth_step(const double a[2], const double b[2])
+double gcp_obs_azimuth_from(struct contour *c, double ref, const double X[3])
 {
-    const double c = a[0] * b[1] - a[1] * b[0], d = a[0] * b[0] + a[1] * b[1];
-    if (d > 0 && fabs(c) < 1e-3 * d) {
-        const double u = c / d, u2 = u * u;
-        return u - u * u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0)));
-    }
-    return atan2(c, d);
+    const double phi = c->n % GCP_OBS_AZ_ANCHOR == 0
+                           ? atan2(X[1], X[0])
+                           : gcp_obs_wrap_pi(ref + gcp_obs_azimuth_step(c->aref_x, X));
+    c->aref_x[0] = X[0], c->aref_x[1] = X[1];
+    return phi;
 }
 
 double gcp_obs_wrap_pi(double a)
@@ -456,13 +448,15 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
         gcp_obs_emit(o, L, &e);
     }
     if (o->want_drift) {
-        /* the azimuth of the middle sample, and the others' from it
-         * (azimuth_step); R = |X_perp| as a square root (hypot guards
-         * against overflow that a position in metres cannot reach) */
+        /* the azimuth of the middle sample (from the last equator point's:
+         * gcp_obs_azimuth_from), and the others' from it; R = |X_perp| as a
+         * square root (hypot guards against overflow that a position in
+         * metres cannot reach) */
         double dphi[3], R[3], psi[3], AR[3], Az[3];
-        const double phi1 = atan2(s[1]->X[1], s[1]->X[0]);
+        const double phi1 = gcp_obs_azimuth_from(&L->ceq, L->ceq.aref, s[1]->X);
+        L->ceq.aref = phi1;
         for (int k = 0; k < 3; k++) {
-            dphi[k] = k == 1 ? 0.0 : azimuth_step(s[1]->X, s[k]->X);
+            dphi[k] = k == 1 ? 0.0 : gcp_obs_azimuth_step(s[1]->X, s[k]->X);
             R[k] = sqrt(s[k]->X[0] * s[k]->X[0] + s[k]->X[1] * s[k]->X[1]);
             contour_A(o, s[k]->t, s[k]->X, R[k], &psi[k], &AR[k], &Az[k]);
         }
@@ -605,7 +599,7 @@ static void loss(struct gcp_observer *o, struct lane *L, int64_t id, const struc
     double *const *r = o->hot.r[o->hot.cur];
     const double xp[3] = {ring ? r[1][li] : o->xprev[0][li], ring ? r[2][li] : o->xprev[1][li],
                           ring ? r[3][li] : o->xprev[2][li]};
-    const double tp = ring ? r[0][li] : o->tprev[li];
+    const double tp = ring ? o->hot.rt[o->hot.cur] : o->tprev[li];
     struct gcp_event e = {.id = id, .kind = GCP_EVENT_LOSS, .status = b->status[i], .t = b->t[i]};
     memcpy(e.v, xe, sizeof xe);
     /* the crossing of the sphere r = r_inner (or r_outer) within the last
@@ -690,6 +684,7 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
                 Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
             }
             const int hot = o->gc && !o->hybrid, c = (o->hot.cur + 1) % 3;
+            o->hot.rt[c] = t;
             for (size_t i = 0; i < n; i++) {
                 const size_t li = b->index[i];
                 if (li >= o->nlanes || !o->active[li]) continue;
@@ -742,6 +737,8 @@ void gcp_observer_begin(struct gcp_observer *o, const struct gcp_block *b, doubl
         L->eq_Bmin = INFINITY;
         L->s_k = L->d_k = 1;
         gcp_obs_lane_to_hot(o, L, li, o->hot.cur);
+        /* mu of every ring slot: a guiding centre's is constant (invariants_quiet.c gs_put) */
+        for (int k = 0; o->gc && !o->hybrid && k < 3; k++) o->hot.r[k][5][li] = b->mu[i];
         o->xprev[0][li] = b->x[i], o->xprev[1][li] = b->y[i], o->xprev[2][li] = b->z[i];
         o->tprev[li] = t0;
     }

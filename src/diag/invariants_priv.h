@@ -3,6 +3,7 @@
 #ifndef GCPUSH_INVARIANTS_PRIV_H
 #define GCPUSH_INVARIANTS_PRIV_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -36,6 +37,9 @@ struct contour {
     struct cpoint prev;
     double phi0, t0, acc;
     double cprev, sprev; /* the stream contour: cos, sin of prev.phi (set by stream_point) */
+    /* gcp_obs_azimuth_from: the position (x, y) whose azimuth the next
+     * point's is measured from, and (equator contour) that azimuth */
+    double aref_x[2], aref;
 };
 
 struct lane {
@@ -108,9 +112,15 @@ struct gcp_observer {
      * every lane -- no copy of s1 into a "previous" array at each step. */
     struct {
         double *r[3][GCP_OBS_RING_NV]; /* t, X[3], ppar, mu, B, p2 and the J integrand jd */
+        /* A slot's time is the same for every lane (its step's t), so it
+         * is rt[slot], not r[slot][0]; and mu is a guiding centre's
+         * constant, written into r[0..2][5] once, at gcp_observer_begin
+         * (gs_put writes neither: invariants_quiet.c) */
+        double rt[3];
         double *J, *mub; /* J_acc, mub */
         double *Bmin;   /* eq_Bmin, or -inf where no equator is wanted */
-        double *tnext;  /* the first cadence time that asks for work (inf: none) */
+        double *tnext;  /* the first cadence time that asks for work (inf: none;
+                           -inf while the lane has no sample: have_s1 = 0) */
         double *cx, *cy; /* the stream contour's cprev, sprev */
         int64_t *have;  /* have_s1 */
         int64_t *next;  /* eq_need_next: the minimum is s1, e0 the sample before it */
@@ -189,9 +199,43 @@ void gcp_obs_fo_block(struct gcp_observer *o, const struct gcp_block *b, double 
  * gcp_obs_stream_sample (invariants_fo.c). */
 void gcp_obs_fo_record(struct gcp_observer *o, struct lane *L, int64_t id,
                        const struct gcp_fo_gyro_rec *r);
-/* Contour quantities of a position (phi, R, psi = R A_phi, A_R, A_z). */
-void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *phi,
-                        double *R, double *psi, double *AR, double *Az);
+/* Contour quantities of a position (R, psi = R A_phi, A_R, A_z). */
+void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *R,
+                        double *psi, double *AR, double *Az);
+
+/* The azimuth of b from that of a, wrapped to (-pi, pi]: atan2(a x b, a . b)
+ * (z components), which equals wrap(atan2(b) - atan2(a)) up to rounding.
+ * Between the samples around an equator point (a step apart, a few 1e-4
+ * rad of drift azimuth) and between successive points of a drift contour
+ * (half a bounce or sample_dt apart: ~0.025 and ~0.065 rad for the 1 MeV
+ * protons at L = 4 of tests/bench/observer.sh) it is almost always the
+ * series atan u = sum_k (-1)^k u^(2k+1)/(2k+1), k = 0 .. 9 (u = cross/dot):
+ * for |u| < 1/8 the first term left out, u^21/21, is
+ * < 4.2e-20 |u|, below the rounding of u; atan2 elsewhere (~30 ns, 6e5
+ * calls a run there; issue 12). */
+static inline double gcp_obs_azimuth_step(const double a[2], const double b[2])
+{
+    const double c = a[0] * b[1] - a[1] * b[0], d = a[0] * b[0] + a[1] * b[1];
+    if (d > 0 && fabs(c) < 0.125 * d) {
+        /* Estrin's scheme in t = u^2 (a chain of ~8 operations, where
+         * Horner's has 18: it bounds the cost of a call) */
+        const double u = c / d, t = u * u, t2 = t * t, t4 = t2 * t2;
+        const double p0 = 1.0 - t * (1.0 / 3.0), p1 = 1.0 / 5.0 - t * (1.0 / 7.0);
+        const double p2 = 1.0 / 9.0 - t * (1.0 / 11.0), p3 = 1.0 / 13.0 - t * (1.0 / 15.0);
+        const double p4 = 1.0 / 17.0 - t * (1.0 / 19.0);
+        const double q0 = p0 + t2 * p1, q1 = p2 + t2 * p3;
+        return u * (q0 + t4 * (q1 + t4 * p4));
+    }
+    return atan2(c, d);
+}
+
+/* The azimuth of a contour c's next point at X from ref, the azimuth of the
+ * position c->aref_x (the last point's, which X then becomes):
+ * wrap(ref + gcp_obs_azimuth_step), no atan2 -- but atan2 at c's first
+ * point and at every GCP_OBS_AZ_ANCHOR-th (c->n), so that the rounding of
+ * the chained sums (~2e-16 rad a point) stays below ~1.5e-14 rad. */
+#define GCP_OBS_AZ_ANCHOR 64
+double gcp_obs_azimuth_from(struct contour *c, double ref, const double X[3]);
 /* Adds point P to contour c; emits a drift event (v[3] = contour) per turn. */
 void gcp_obs_drift_point(struct gcp_observer *o, struct lane *L, struct contour *c, int64_t id,
                          struct cpoint P, int which);

@@ -33,17 +33,21 @@
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
 
-/* Slot k of the ring: a gsample's 8 values and jd. */
+/* Slot k of the ring: a gsample's values and jd, but for its time (the
+ * slot's, o->hot.rt[k]) and mu (a guiding centre's constant, in every slot
+ * since gcp_observer_begin).  Why: the quiet pass, which writes every
+ * lane's sample into a slot at every step, is bound by its loads and
+ * stores (~35 a lane); t and mu were 4 of them. */
 static void gs_put(double *const a[GCP_OBS_RING_NV], size_t li, const struct gsample *g, double jd)
 {
-    const double v[GCP_OBS_RING_NV] = {g->t, g->X[0], g->X[1], g->X[2], g->ppar,
-                                       g->mu, g->B, g->p2, jd};
-    for (int k = 0; k < GCP_OBS_RING_NV; k++) a[k][li] = v[k];
+    a[1][li] = g->X[0], a[2][li] = g->X[1], a[3][li] = g->X[2], a[4][li] = g->ppar;
+    a[6][li] = g->B, a[7][li] = g->p2, a[8][li] = jd;
 }
 
-static struct gsample gs_get(double *const a[GCP_OBS_RING_NV], size_t li)
+static struct gsample gs_get(const struct gcp_observer *o, int k, size_t li)
 {
-    return (struct gsample){.t = a[0][li], .X = {a[1][li], a[2][li], a[3][li]},
+    double *const *a = o->hot.r[k];
+    return (struct gsample){.t = o->hot.rt[k], .X = {a[1][li], a[2][li], a[3][li]},
                             .ppar = a[4][li], .mu = a[5][li], .B = a[6][li], .p2 = a[7][li]};
 }
 
@@ -55,11 +59,11 @@ void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li
 {
     if (!o->hot.have[li]) return; /* the quiet pass has not run: the lane is its own record */
     const int c = o->hot.cur;
-    L->s1 = gs_get(o->hot.r[c], li);
+    L->s1 = gs_get(o, c, li);
     L->jd1 = o->hot.r[c][8][li], L->J_acc = o->hot.J[li], L->mub = o->hot.mub[li];
     if (o->hot.next[li]) {
         L->eq_Bmin = o->hot.Bmin[li];
-        L->e0 = gs_get(o->hot.r[(c + 2) % 3], li);
+        L->e0 = gs_get(o, (c + 2) % 3, li);
         L->e1 = L->s1;
         L->eq_has_prev = (int)o->hot.hprev[li];
         L->eq_need_next = 1;
@@ -89,7 +93,8 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
         tn = o->t0 + (double)L->s_k * T;
     const int contour = o->want_drift && !L->n_drift_eq && T > 0;
     if (contour) tn = fmin(tn, o->t0 + (double)L->d_k * T);
-    o->hot.tnext[li] = tn;
+    /* no sample yet: never quiet (the pass reads no have[] of its own) */
+    o->hot.tnext[li] = L->have_s1 ? tn : -INFINITY;
     o->hot.az[li] = contour && L->cst.n;
     o->hot.cx[li] = L->cst.cprev, o->hot.cy[li] = L->cst.sprev;
 }
@@ -107,8 +112,8 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * pass writes every lane's sample into the ring's next slot c, quiet or
  * not (a lane that is not gets the same values from lane_to_hot), and
  * leaves the slot before the latest (e0 of a lane whose minimum waits)
- * alone; per lane ~20 loads and ~15 stores, where the pass with a copy of
- * s1 into a previous-sample array and |B|, p^2, jd through arrays of their
+ * alone; per lane ~17 loads and ~11 stores (no t, mu or have: gs_put),
+ * where the pass with a copy of s1 into a previous-sample array and |B|, p^2, jd through arrays of their
  * own had ~40 and ~30. */
 static inline __attribute__((always_inline)) void
 stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
@@ -119,14 +124,16 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
     const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
     const double m = o->m;
     const int p = o->hot.cur, c = (p + 1) % 3;
-    const double *restrict t1 = o->hot.r[p][0], *restrict pp1 = o->hot.r[p][4];
-    const double *restrict mu1 = o->hot.r[p][5], *restrict jd1 = o->hot.r[p][8];
-    double *restrict tc = o->hot.r[c][0], *restrict X0 = o->hot.r[c][1], *restrict X1 = o->hot.r[c][2];
-    double *restrict X2 = o->hot.r[c][3], *restrict ppc = o->hot.r[c][4], *restrict muc = o->hot.r[c][5];
+    /* every lane's previous sample is at the slot's time; a lane that has
+     * none has tnext = -inf (lane_to_hot), so it is not calm */
+    const double h = t - o->hot.rt[p];
+    const double *restrict pp1 = o->hot.r[p][4], *restrict jd1 = o->hot.r[p][8];
+    double *restrict X0 = o->hot.r[c][1], *restrict X1 = o->hot.r[c][2];
+    double *restrict X2 = o->hot.r[c][3], *restrict ppc = o->hot.r[c][4];
     double *restrict Bc = o->hot.r[c][6], *restrict p2c = o->hot.r[c][7], *restrict jdc = o->hot.r[c][8];
     double *restrict J = o->hot.J, *restrict mub = o->hot.mub, *restrict Bmin = o->hot.Bmin;
     const double *restrict tnext = o->hot.tnext, *restrict cx = o->hot.cx, *restrict cy = o->hot.cy;
-    const int64_t *restrict have = o->hot.have, *restrict az = o->hot.az;
+    const int64_t *restrict az = o->hot.az;
     int64_t *restrict next = o->hot.next, *restrict hprev = o->hot.hprev, *restrict slow = o->hot.slow;
     GCP_OBS_IVDEP
     for (size_t i = 0; i < n; i++) {
@@ -143,21 +150,22 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
         /* calm: the trapezoid sums and the minimum are all that happens,
          * but for the sample after a minimum (after), which stream_sample
          * would only take as e2 */
-        const int64_t calm = have[li] & ((pp1[li] > 0) == (pp[i] > 0)) & (tnext[li] > t) & still;
-        const int64_t after = calm & next[li] & !newmin;
-        const int64_t quiet = calm & !after;
-        slow[i] = (int64_t)!calm | (after << 1);
-        const double h = t - t1[li];
+        const int64_t calm = (int64_t)((pp1[li] > 0) == (pp[i] > 0)) & (int64_t)(tnext[li] > t) & still;
+        const int64_t after = calm & next[li] & (newmin ^ 1);
+        const int64_t quiet = calm & (after ^ 1);
+        slow[i] = (calm ^ 1) | (after << 1);
         const double Jn = J[li] + 0.5 * (jd1[li] + Gjd) * h;
-        const double mn = mub[li] + 0.5 * (mu1[li] + mu[i]) * h;
+        /* stream_sample's 0.5 (mu_1 + mu) h with mu_1 = mu (a guiding
+         * centre's mu is constant): the same number */
+        const double mn = mub[li] + mu[i] * h;
         const int64_t nm = quiet & newmin;
         Bmin[li] = nm ? Gb : Bmin[li];
-        next[li] = (nm | next[li]) & !after;
+        next[li] = (nm | next[li]) & (after ^ 1);
         hprev[li] = nm | hprev[li];
         J[li] = calm ? Jn : J[li];
         mub[li] = calm ? mn : mub[li];
-        tc[li] = t, X0[li] = x[i], X1[li] = y[i], X2[li] = z[i];
-        ppc[li] = pp[i], muc[li] = mu[i], Bc[li] = Gb, p2c[li] = Gp2, jdc[li] = Gjd;
+        X0[li] = x[i], X1[li] = y[i], X2[li] = z[i];
+        ppc[li] = pp[i], Bc[li] = Gb, p2c[li] = Gp2, jdc[li] = Gjd;
     }
 }
 
@@ -168,6 +176,7 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
                           int dense)
 {
     const size_t *idx = b->index;
+    o->hot.rt[(o->hot.cur + 1) % 3] = t;
     if (dense) stream_quiet_pass(o, b, t, n, NULL);
     else stream_quiet_pass(o, b, t, n, idx);
     o->hot.passes++;
@@ -192,16 +201,16 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
             /* the sample after the minimum s1 (the pass took its sums and
              * cleared next): stream_sample's e0, e1, e2 and flags from the
              * ring, the sample before s1, s1 and this one */
-            L->e0 = gs_get(o->hot.r[(p + 2) % 3], li);
-            L->e1 = gs_get(o->hot.r[p], li);
-            L->e2 = gs_get(o->hot.r[c], li);
+            L->e0 = gs_get(o, (p + 2) % 3, li);
+            L->e1 = gs_get(o, p, li);
+            L->e2 = gs_get(o, c, li);
             L->eq_Bmin = o->hot.Bmin[li];
             L->eq_has_prev = L->eq_valid = (int)o->hot.hprev[li];
             L->eq_need_next = 0;
             continue;
         }
         /* the pass's values of this step, in slot c */
-        const struct gsample s = gs_get(o->hot.r[c], li);
+        const struct gsample s = gs_get(o, c, li);
         gcp_obs_hot_to_lane(o, L, li);
         gcp_obs_stream_sample_jd(o, L, o->id0 + (int64_t)li, &s, o->hot.r[c][8][li]);
         gcp_obs_lane_to_hot(o, L, li, c);

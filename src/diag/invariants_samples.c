@@ -32,7 +32,9 @@ static void stream_point(struct gcp_observer *o, struct lane *L, int64_t id, con
     double X[3];
     for (int k = 0; k < 3; k++) X[k] = a->X[k] + th * (s->X[k] - a->X[k]);
     struct cpoint P = {.t = t, .z = X[2]};
-    gcp_obs_contour_of(o, t, X, &P.phi, &P.R, &P.psi, &P.AR, &P.Az);
+    /* the azimuth from the last point's (no atan2 but at every 64th) */
+    P.phi = gcp_obs_azimuth_from(&L->cst, L->cst.prev.phi, X);
+    gcp_obs_contour_of(o, t, X, &P.R, &P.psi, &P.AR, &P.Az);
     gcp_obs_drift_point(o, L, &L->cst, id, P, GCP_CONTOUR_STREAM);
     /* the direction of its azimuth, for azimuth_moved (cos, sin of P.phi
      * to rounding, which that test's margin covers) */
