@@ -67,6 +67,7 @@
 #include "field_priv.h"
 #include "gcpush/particles.h"
 #include "grid_priv.h"
+#include "spl_inline.h"
 
 struct eqdsk_params {
     struct gcp_spl psi;   /* psirz, 2D (R, Z) */
@@ -364,6 +365,30 @@ fail:
 
 /* ---- evaluation ----------------------------------------------------------- */
 
+/* gcp_spl1_eval of the septic profile's component 0 (fpol) with its first
+ * derivative only, inline: the same cell, weights and sums (the same
+ * numbers), without the call, the kind dispatch and the second-derivative
+ * weights the generic path forms (F(psi) was ~10% of a gc-gl2 step in
+ * DIII-D: every field evaluation takes it). */
+static inline double eqdsk_prof7(const struct gcp_spl *s, double u, double *du)
+{
+    const double x = s->x0[0] + u * s->h[0];
+    size_t off;
+    double t, w[8], dw[8];
+    gcp_spl_cell(s, 0, x, &off, &t);
+    gcp_spl_w7(t, s->inv_h[0], 1, w, dw, NULL);
+    const double *co = s->coef[0] + off;
+    const double c0 = co[0];
+    double f = 0, d = 0;
+    for (int a = 0; a < 8; a++) {
+        const double ca = co[a] - c0;
+        f += w[a] * ca;
+        d += dw[a] * ca;
+    }
+    *du = d * s->h[0];
+    return c0 + f;
+}
+
 /* F and dF/dpsi at psi (file's psi), Z: the profile inside the plasma,
  * the edge value outside. */
 static inline void eqdsk_F(const struct eqdsk_params *e, double psi, double Z, double *F,
@@ -377,14 +402,20 @@ static inline void eqdsk_F(const struct eqdsk_params *e, double psi, double Z, d
     }
     const double scale = (double)(e->info.nw - 1);
     double du;
-    *F = gcp_spl1_eval(&e->prof, 0, psiN * scale, &du, NULL);
+    *F = e->prof.kind == GCP_SPL_SEPTIC ? eqdsk_prof7(&e->prof, psiN * scale, &du)
+                                        : gcp_spl1_eval(&e->prof, 0, psiN * scale, &du, NULL);
     *dF = du * scale / e->dpsi;
 }
 
 /* B (and grad B with grad) at R, Z from psi's spline output o there (order
  * 2 with grad, else 1), with the cylindrical frame (c, sn) of the point. */
-static inline void eqdsk_B_of(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R,
-                              double Z, double c, double sn, int grad, struct gcp_field_sample *s)
+/* always_inline: compiled as a function of its own (as GCC 12 did once
+ * eqdsk_prof7 was inlined into it) the rotation gcp_axi_to_cart became an
+ * SLP complex multiply with vfmaddsub, a contraction despite
+ * -ffp-contract=off, and changed B's last bits. */
+static inline __attribute__((always_inline)) void
+eqdsk_B_of(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R, double Z, double c,
+           double sn, int grad, struct gcp_field_sample *s)
 {
     double F, dF;
     eqdsk_F(e, o->f, Z, &F, &dF);
@@ -522,7 +553,6 @@ static void psi_out(double sp, const struct gcp_spl_out *o, double out[6])
 /* psi (gcpush's sign: s_pol psi_file) with its R, Z derivatives
  * (fields/flux_priv.h), from the same spline as eval. */
 #include "flux_priv.h"
-#include "spl_inline.h"
 
 int gcp_eqdsk_psi_RZ2(const struct gcp_field *f, double R, double Z, double out[6])
 {

@@ -177,14 +177,21 @@ static void fpoint_dH(const struct fpoint *o, double dH[4])
  * that differs from the last by round-off (H's derivatives there are off by
  * that round-off).  With xlin (from_canon: only the position and p_par are
  * wanted, and P_phi(X, p_par) must be P_phi(z) to round-off), a step below
- * 1e-11, the last ones included, is taken and the point
+ * FLUX_XLIN = 1e-9, the last ones included, is taken and the point
  * moved along the chart's dX/ds instead of evaluated again: the step leaves
- * an error ~e^2 < 1e-22, and the linear move one of ~e^2 too.  Not at 1e-8:
+ * an error ~e^2 < 1e-18 (Newton's constant measured 0.1 .. 1 on bench_flux's
+ * orbits: the iterate after a step e0 is ~e0^2 off), and the linear move one
+ * of ~e^2 too.  Not at 1e-8:
  * the ~1e-16 those leave is systematic (the curvature of the line), and
  * gcp_gc_push re-enters the canonical state from (X, p_par) every 256 steps,
  * so P_phi drifted linearly (2.1e-12 over 1e7 steps of gc-gl4 in the
  * tokamak, 10x its 1e6 figure), as it did when the last step below 1e-15
- * was not taken.  s is kept above 0 (the axis, where J = 0). */
+ * was not taken; at 1e-9 that drift scales to ~2e-14.  Why not 1e-11 (as
+ * before): gc-gl2's end point guess (gc_gauss_wlift.c) is ~1e-4 .. 1e-6
+ * off, the second iterate ~1e-9 .. 1e-11, so 80% of the steps in the
+ * tokamak (bench_flux) took a third chart evaluation for a step that the
+ * linear move takes at ~1e-18. s is kept above 0 (the axis, where J = 0). */
+#define FLUX_XLIN 1e-9
 static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
                       const double z[4], double aux[2], struct fpoint *o, int xlin)
 {
@@ -200,7 +207,7 @@ static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts
         const double ds = -(o->Gw[1][1] * r0 - o->Gw[0][1] * r1) / det;
         const double dp = -(-o->Gw[1][0] * r0 + o->Gw[0][0] * r1) / det;
         const double e = fmax(fabs(ds) / sscale, fabs(dp) / o->pscale);
-        if (xlin && e < 1e-11 && !st) {
+        if (xlin && e < FLUX_XLIN && !st) {
             aux[0] = s + ds, aux[1] = p + dp;
             o->g.R += o->g.R_s * ds, o->g.Z += o->g.Z_s * ds;
             return aux[0] > 0.0 ? 0 : GCP_STEP_FAILED;
