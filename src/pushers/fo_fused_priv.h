@@ -116,7 +116,8 @@ struct gcp_fo_fused {
     const double IG0 = CARRY_ ? 1.0 / G[i] : 1.0;                                               \
     (void)IG0;                                                                                  \
     double bx, by, bz;                                                                          \
-    FORM_(X_, Y_, Z_, bx, by, bz);
+    FORM_(X_, Y_, Z_, bx, by, bz);                                                              \
+    (void)bx, (void)by, (void)bz;
 #define GCP_FO_LANE2_(KICK_, CARRY_, XS, YS, ZS)                                                \
     double U = ux[i], V = uy[i], W = uz[i];                                                     \
     const double X = XS, Y = YS, Z = ZS;                                                        \
@@ -371,17 +372,19 @@ struct gcp_fo_fused {
  * gcp_fo_fused_NAME_.  GCP_FO_FUSED_DEFINE_SPLIT_ takes the B tiles' stash
  * and kick (GCP_FO_TILE_DEFINE_) as given: a kick that computes part of
  * its work from B and gamma alone can do it in the first loop
- * (gcp_fo_fused_boris_, src/pushers/boris.c). */
+ * (gcp_fo_fused_boris_, src/pushers/boris.c); with USPLIT_ = 1 the uniform
+ * tiles are split too, the B tile with the same stash and kick, the E and B
+ * tile with STASH_EB_ and KICK2_EB_ (USPLIT_ = 0: one loop a step, the
+ * plain kicks; STASH_EB_ and KICK2_EB_ unused). */
 #define GCP_FO_IG_0_
 #define GCP_FO_IG_1_ , IG0
-#define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_)             \
+#define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_, USPLIT_,      \
+                                   STASH_EB_, KICK2_EB_)                                        \
     GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, 1)   \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, GCP_FO_STASH_B_,              \
-                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY,   \
-                        0)                                                                      \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, GCP_FO_STASH_B_,             \
-                        KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0,   \
-                        0)                                                                      \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY,    \
+                        USPLIT_)                                                                \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, STASH_EB_, KICK2_EB_, 0,     \
+                        USPLIT_)                                                                \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_,                            \
                         KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_,                          \
@@ -393,7 +396,10 @@ struct gcp_fo_fused {
                  [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B}};
 #define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
     GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, GCP_FO_STASH_B_,                      \
-                               KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_))
+                               KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_),   \
+                               0, GCP_FO_STASH_B_,                                              \
+                               KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m,    \
+                                    dt))
 
 /* ---- Newtonian pushers (u = v: boris-nr) --------------------------------
  *
