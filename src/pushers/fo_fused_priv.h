@@ -116,8 +116,9 @@ struct gcp_fo_fused {
     const double IG0 = CARRY_ ? 1.0 / G[i] : 1.0;                                               \
     (void)IG0;                                                                                  \
     double bx, by, bz;                                                                          \
-    FORM_(X_, Y_, Z_, bx, by, bz);
-#define GCP_FO_LANE2_(KICK_, CARRY_, XS, YS, ZS)                                                \
+    FORM_(X_, Y_, Z_, bx, by, bz);                                                              \
+    (void)bx, (void)by, (void)bz;
+#define GCP_FO_LANE2_(KICK_, CARRY_, XS, YS, ZS, TEST_)                                         \
     double U = ux[i], V = uy[i], W = uz[i];                                                     \
     const double X = XS, Y = YS, Z = ZS;                                                        \
     KICK_;                                                                                      \
@@ -130,7 +131,29 @@ struct gcp_fo_fused {
     hg[i] = g1;                                                                                 \
     const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                              \
     const double u2 = U * U + V * V + W * W;                                                    \
-    any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);
+    if (TEST_) any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);
+
+/* One step of a tile (GCP_FO_TILE_DEFINE_), with the stop test (TEST_ = 1,
+ * any set) or without it. */
+#define GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, TEST_)                          \
+    if (SPLIT_) {                                                                               \
+        for (size_t i = 0; i < nt; i++) {                                                       \
+            GCP_FO_LANE1_(FORM_, CARRY_)                                                        \
+            x[i] = X_, y[i] = Y_, z[i] = Z_;                                                    \
+            STASH_;                                                                             \
+        }                                                                                       \
+        for (size_t i = 0; i < nt; i++) {                                                       \
+            const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];               \
+            (void)bx, (void)by, (void)bz, (void)IG0;                                            \
+            GCP_FO_LANE2_(KICK_, CARRY_, x[i], y[i], z[i], TEST_)                               \
+        }                                                                                       \
+    } else {                                                                                    \
+        for (size_t i = 0; i < nt; i++) {                                                       \
+            GCP_FO_LANE1_(FORM_, CARRY_)                                                        \
+            (void)K;                                                                            \
+            GCP_FO_LANE2_(KICK_, CARRY_, X_, Y_, Z_, TEST_)                                     \
+        }                                                                                       \
+    }
 
 /* One tile function: FORM_ is the B macro above; each step is two loops
  * over the tile's lanes.  The first makes the half drift, the field and
@@ -146,8 +169,22 @@ struct gcp_fo_fused {
  * values: bit-identical.  With CARRY_ = 1, IG0 = 1 / G0, G0 = gamma(u)
  * kept per lane from the previous step's drift factor (the same sqrt of
  * the same u: bit-identical, one sqrt a step fewer; only without E, where
- * the kick's u- is u); else IG0 = 1. */
-#define GCP_FO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, SPLIT_)                       \
+ * the kick's u- is u); else IG0 = 1.
+ *
+ * FREE_ = 1 (boris's uniform tiles): the per-step stop test is skipped
+ * where gcp_fo_nr_cannot_stop proves it false for every lane at every step
+ * of the call, as in the Newtonian tiles below (the test is a fifth of the
+ * step's operations); EMAG_ and BMAG_ are the form's |E|_1 and |B|_1.  The
+ * Newtonian proof holds for relativistic Boris: its rotation keeps |u-| as
+ * the Newtonian one does, its t = qdt2m B / gamma- is at most qdt2m |B|
+ * (gamma >= 1, also in floating point: sqrt(1 + a), a >= 0), its half drifts
+ * move x by u h / gamma <= |u| h, and gamma(u) <= 1 + |u| / c stays
+ * finite.  One thing differs: its rotation forms s (u' x t), s = 2 / (1 +
+ * t^2), where the Newtonian kick forms u' x s with |s| <= 1, so its
+ * intermediate u' x t reaches |u|(1 + |t|)|t|; GCP_FO_REL_TB_ = 1e70 bounds
+ * |t| so that this stays below 1e291 for |u| <= U_B = 1e150. */
+#define GCP_FO_REL_TB_ 1e70
+#define GCP_FO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, SPLIT_, FREE_, EMAG_, BMAG_)  \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
                          double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
@@ -169,26 +206,16 @@ struct gcp_fo_fused {
             }                                                                                   \
         }                                                                                       \
         int64_t s = 0;                                                                          \
+        if (FREE_ && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_,      \
+                                           GCP_FO_REL_TB_))                                     \
+            for (; s < kmax; s++) {                                                             \
+                int32_t any = 0;                                                                \
+                GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, 0)                      \
+                (void)any;                                                                      \
+            }                                                                                   \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
-            if (SPLIT_) {                                                                       \
-                for (size_t i = 0; i < nt; i++) {                                               \
-                    GCP_FO_LANE1_(FORM_, CARRY_)                                                \
-                    x[i] = X_, y[i] = Y_, z[i] = Z_;                                            \
-                    STASH_;                                                                     \
-                }                                                                               \
-                for (size_t i = 0; i < nt; i++) {                                               \
-                    const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];       \
-                    (void)bx, (void)by, (void)bz, (void)IG0;                                    \
-                    GCP_FO_LANE2_(KICK_, CARRY_, x[i], y[i], z[i])                              \
-                }                                                                               \
-            } else {                                                                            \
-                for (size_t i = 0; i < nt; i++) {                                               \
-                    GCP_FO_LANE1_(FORM_, CARRY_)                                                \
-                    (void)K;                                                                    \
-                    GCP_FO_LANE2_(KICK_, CARRY_, X_, Y_, Z_)                                    \
-                }                                                                               \
-            }                                                                                   \
+            GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, 1)                          \
             if (any) {                                                                          \
                 *stopped = 1;                                                                   \
                 s++;                                                                            \
@@ -371,17 +398,21 @@ struct gcp_fo_fused {
  * gcp_fo_fused_NAME_.  GCP_FO_FUSED_DEFINE_SPLIT_ takes the B tiles' stash
  * and kick (GCP_FO_TILE_DEFINE_) as given: a kick that computes part of
  * its work from B and gamma alone can do it in the first loop
- * (gcp_fo_fused_boris_, src/pushers/boris.c). */
+ * (gcp_fo_fused_boris_, src/pushers/boris.c); with USPLIT_ = 1 the uniform
+ * tiles are split too, the B tile with the same stash and kick, the E and B
+ * tile with STASH_EB_ and KICK2_EB_, and skip the stop test where it is
+ * proved false (FREE_ above: Boris's bounds; USPLIT_ = 0: one loop a step
+ * with the test, the plain kicks; STASH_EB_ and KICK2_EB_ unused). */
 #define GCP_FO_IG_0_
 #define GCP_FO_IG_1_ , IG0
-#define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_)             \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, 1)   \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, GCP_FO_STASH_B_,              \
-                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY,   \
-                        0)                                                                      \
-    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, GCP_FO_STASH_B_,             \
-                        KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m, dt), 0,   \
-                        0)                                                                      \
+#define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_, USPLIT_,      \
+                                   STASH_EB_, KICK2_EB_)                                        \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, 1, \
+                        0, 0.0, 0.0)                                                            \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY,    \
+                        USPLIT_, USPLIT_, 0.0, GCP_FO_ABS3_(a->p))                              \
+    GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, STASH_EB_, KICK2_EB_, 0,     \
+                        USPLIT_, USPLIT_, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p))           \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_,                            \
                         KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_,                          \
@@ -393,7 +424,10 @@ struct gcp_fo_fused {
                  [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B}};
 #define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
     GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, GCP_FO_STASH_B_,                      \
-                               KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_))
+                               KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_),   \
+                               0, GCP_FO_STASH_B_,                                              \
+                               KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m,    \
+                                    dt))
 
 /* ---- Newtonian pushers (u = v: boris-nr) --------------------------------
  *
@@ -430,12 +464,12 @@ static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *
                                         const double *restrict uy, const double *restrict uz,
                                         size_t nt, int64_t kmax,
                                         const struct gcp_fo_tile_args *a, double emag,
-                                        double bmag)
+                                        double bmag, double tb)
 {
     if (kmax < 2 || !(a->rin2 <= 0.0) || a->rout2 != INFINITY || a->zmax != INFINITY) return 0;
     const double qdt2m = fabs(0.5 * a->q * a->dt / a->m), k = (double)kmax;
     const double e2k = 2.0 * k * qdt2m * emag, h2k = 2.0 * k * fabs(a->h);
-    if (!(qdt2m * bmag <= GCP_FO_NR_TB_) || !(e2k <= GCP_FO_NR_UB_) || !(h2k <= 1e300))
+    if (!(qdt2m * bmag <= tb) || !(e2k <= GCP_FO_NR_UB_) || !(h2k <= 1e300))
         return 0;
     int32_t bad = 0;
     for (size_t i = 0; i < nt; i++) {
@@ -492,7 +526,8 @@ static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
         (void)q, (void)m, (void)dt, (void)hg_io, (void)hg_mode;                                 \
-        if (FREE_ && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_)) {   \
+        if (FREE_ && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_,     \
+                                      GCP_FO_NR_TB_)) {                                         \
             FNAME##_free_(x, y, z, ux, uy, uz, nt, kmax, a);                                    \
             return kmax;                                                                        \
         }                                                                                       \
