@@ -13,6 +13,8 @@
  *    on the output times beside their grid of s-steps, so a push sampled
  *    at every step, every 7 steps, or never gives the same bits, with lanes
  *    that precipitate and turn non-adiabatic in different tiles.
+ *  - A lane whose Newton solve fails gets STEP_FAILED (NO_CONVERGENCE) at
+ *    its last accepted s-step, and its tile's other lanes do not notice.
  * Orbits: 1 MeV electrons at L = 4 mirroring at 62.9 deg (equatorial pitch
  * 4 deg) and at 82 deg (0.11 deg), as test_gc_sundman.c. */
 #include <math.h>
@@ -344,5 +346,117 @@ Test(gc_sundman_line, slicing_leaves_the_numbers, .timeout = 120)
             cr_expect_eq(r[1].calls, NST);
             for (int v = 0; v < 3; v++) gcp_block_free(&b[v]);
         }
+    gcp_field_free(f);
+}
+
+/* ---- a lane whose Newton fails ---- */
+
+/* NF_N protons of 1-2 MeV (L = 3 .. 5, pitch 30 .. 80 deg, near the
+ * equator; T_b ~ 7 s) that gc-gl4-sundman steps at ds = 0.5 s, and at lane
+ * NF_BAD a 100 MeV proton of pitch 60 deg at L = 4 (T_b ~ 0.65 s) whose
+ * s-step is ~0.8 of its bounce: its Newton solve stops contracting after
+ * an accepted step (measured: 1).  bad = 0: the block without that lane. */
+#define NF_N 24
+#define NF_BAD 5
+static size_t nf_fill(struct gcp_block *b, const struct gcp_field *f, int bad)
+{
+    rs = 0x13198A2E03707344ull;
+    b->q = GCP_E_CHARGE, b->m = GCP_M_PROTON;
+    size_t n = 0;
+    for (size_t i = 0; i < NF_N; i++) {
+        const double L = 3.0 + 2.0 * urand(), lon = 2.0 * GCP_PI * urand(), lat = 0.2 * urand();
+        const double T = 1e6 * GCP_E_CHARGE * pow(2.0, urand());
+        const double a = (30.0 + 50.0 * urand()) * GCP_PI / 180.0;
+        if (i == NF_BAD && !bad) continue;
+        const int hot = i == NF_BAD;
+        const double s = sin(hot ? 0.1 : lat), W = 1.0 - s * s, R = (hot ? 4.0 : L) * GC_RE * W * sqrt(W);
+        b->x[n] = R * cos(lon), b->y[n] = R * sin(lon), b->z[n] = (hot ? 4.0 : L) * GC_RE * W * s;
+        const double X[3] = {b->x[n], b->y[n], b->z[n]};
+        const double p = gc_p_of_T(hot ? 1e8 * GCP_E_CHARGE : T, b->m), ah = hot ? GCP_PI / 3 : a;
+        b->ppar[n] = p * cos(ah);
+        b->mu[n] = p * sin(ah) * p * sin(ah) / (2.0 * b->m * gc_Bmag(f, X));
+        b->status[n] = 0, b->steps[n] = 0, b->t[n] = 0.0, b->index[n] = i;
+        n++;
+    }
+    b->n_active = n;
+    return n;
+}
+
+/* The failure path of the fused form (gc_sundman_dipole.c): the lane
+ * whose solve fails gets STEP_FAILED with reason NO_CONVERGENCE, at the
+ * state and time of its last grid point (nothing of the failed step is
+ * kept, GSL odeiv2's contract): that state is its k accepted s-steps, as
+ * the one-s-step map gcp_sundman_dipole_step gives them from the start
+ * (its Newton starts from K = 0, not the tile's predictor: the same
+ * solution to the solve's tolerance, 1e-15 of the step's increments; 1e-12
+ * of L asserted, where one s-step moves the lane by ~L).  (The map's next
+ * step from K = 0 converges here, where the tile's, from the predictor,
+ * does not: which start fails is not a property of the step, so it is not
+ * asserted.)  The other lanes of its tile are untouched: bit-identical to
+ * the run without it. */
+Test(gc_sundman_line, newton_failure_fails_one_lane, .timeout = 60)
+{
+    struct gcp_field *f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
+    struct gcp_point_B form;
+    cr_assert(gcp_field_point_B(f, &form) && form.form == GCP_POINT_B_DIPOLE);
+    const struct gcp_pusher_type *P = &gcp_pusher_gc_gl4_sundman;
+    const struct gcp_push_opts o = {0.0, 0.5, 40, 0.0, 0.0};
+    struct gcp_block b[2];
+    size_t n[2];
+    for (int v = 0; v < 2; v++) {
+        cr_assert_eq(gcp_block_alloc(&b[v], NF_N), 0);
+        n[v] = nf_fill(&b[v], f, v);
+    }
+    /* the bad lane's start, before the push */
+    const size_t jb = NF_BAD;
+    const double X0[3] = {b[1].x[jb], b[1].y[jb], b[1].z[jb]}, pp0 = b[1].ppar[jb], mu0 = b[1].mu[jb];
+    size_t live[2];
+    for (int v = 0; v < 2; v++) live[v] = P->advance(&b[v], f, P, &o, NULL);
+    cr_expect_eq(live[0], n[0], "the block without the bad lane: %zu of %zu alive", live[0], n[0]);
+    cr_expect_eq(live[1], n[1] - 1, "with it: %zu of %zu alive", live[1], n[1]);
+    size_t at[2][NF_N];
+    for (int v = 0; v < 2; v++)
+        for (size_t i = 0; i < n[v]; i++) at[v][b[v].index[i]] = i;
+    int failed = 0;
+    for (size_t id = 0; id < NF_N; id++) {
+        const size_t j = at[1][id];
+        if (id == NF_BAD) {
+            failed = b[1].status[j] == GCP_STEP_FAILED;
+            cr_expect_eq(b[1].status[j], GCP_STEP_FAILED, "bad lane: status %d", b[1].status[j]);
+            cr_expect_eq(b[1].step_failure[j], GCP_FAIL_NO_CONVERGENCE, "bad lane: %s",
+                         gcp_step_failure_name(b[1].step_failure[j]));
+            continue;
+        }
+        const size_t i = at[0][id];
+        cr_expect(b[1].status[j] == b[0].status[i] && b[1].steps[j] == b[0].steps[i] &&
+                      b[1].t[j] == b[0].t[i] && b[1].x[j] == b[0].x[i] && b[1].y[j] == b[0].y[i] &&
+                      b[1].z[j] == b[0].z[i] && b[1].ppar[j] == b[0].ppar[i],
+                  "lane %zu differs beside the failed lane", id);
+    }
+    cr_assert(failed);
+    /* the failed lane: k accepted s-steps of the map from its start, and
+     * the map's step k + 1 fails */
+    const size_t j = at[1][NF_BAD];
+    const int64_t k = b[1].steps[j];
+    cr_log_info("bad lane: STEP_FAILED (%s) after %lld s-steps at t = %.6g s",
+                gcp_step_failure_name(b[1].step_failure[j]), (long long)k, b[1].t[j]);
+    cr_expect(k >= 1 && b[1].t[j] > 0.0 && b[1].t[j] < 20.0, "k %lld t %g", (long long)k, b[1].t[j]);
+    struct sl_sys S = {.f = f, .k = form.p[0], .q = b[1].q, .m = b[1].m, .mu = mu0};
+    double y[6], c04, H;
+    sl_lift(&S, X0, pp0, y, &c04);
+    for (int64_t s = 0; s < k; s++)
+        cr_assert_eq(gcp_sundman_dipole_step(S.k, S.q, S.m, S.mu, c04, 2, o.dt, 0, y, &H), 0,
+                     "map step %lld", (long long)s);
+    const double L = -S.q * S.k / y[3], sv = y[1], Wv = 1.0 - sv * sv;
+    const double phi = y[0] + (-S.m * GC_C * L * L / (S.q * S.k)) * 2.0 * sv * Wv *
+                                  (y[4] / (S.m * GC_C * L)) / (1.0 + 3.0 * sv * sv);
+    const double R = L * Wv * sqrt(Wv), Xm[3] = {R * cos(phi), R * sin(phi), L * Wv * sv};
+    const double rr = L;
+    cr_expect(fabs(b[1].x[j] - Xm[0]) < 1e-12 * rr && fabs(b[1].y[j] - Xm[1]) < 1e-12 * rr &&
+                  fabs(b[1].z[j] - Xm[2]) < 1e-12 * rr && fabs(b[1].t[j] - y[2]) < 1e-12 * y[2],
+              "restored state (%.17g %.17g %.17g, t %.17g) vs the map's k steps (%.17g %.17g "
+              "%.17g, t %.17g)", b[1].x[j], b[1].y[j], b[1].z[j], b[1].t[j], Xm[0], Xm[1], Xm[2],
+              y[2]);
+    for (int v = 0; v < 2; v++) gcp_block_free(&b[v]);
     gcp_field_free(f);
 }
