@@ -29,7 +29,7 @@
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
 #include "pushers/gc_sundman_priv.h"
-#include "test_gc_util.h"
+#include "test_gc_slicing.h"
 
 struct sl_sys {
     struct gcp_field *f;
@@ -247,106 +247,13 @@ Test(gc_sundman_line, energy_bounded_long_run, .timeout = 120)
 
 /* ---- slicing ---- */
 
-static uint64_t rs;
-static double urand(void)
-{
-    rs = rs * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(rs >> 11) * 0x1.0p-53;
-}
-
-#define NL 150
-#define NST 1500
-
-struct rec {
-    int calls;
-};
-static void count(const struct gcp_block *b, double t, void *ctx)
-{
-    (void)b, (void)t;
-    ((struct rec *)ctx)->calls++;
-}
-
-/* test_gc_dipole_line.c's scene: NL protons or electrons, trapped (L = 2
- * .. 6.2), every 7th inside the loss cone (precipitates), every 9th proton
- * of 50-200 MeV (non-adiabatic at amax = 0.1). */
-static void fill(struct gcp_block *b, const struct gcp_field *f, int el)
-{
-    rs = 0x243F6A8885A308D3ull + (uint64_t)el;
-    b->q = el ? -GCP_E_CHARGE : GCP_E_CHARGE, b->m = el ? GCP_M_ELECTRON : GCP_M_PROTON;
-    for (size_t i = 0; i < NL; i++) {
-        const double L = 2.0 + 4.2 * urand(), lon = 2.0 * GCP_PI * urand();
-        const int hot = !el && (i % 9 == 0);
-        const double T = (hot ? 5e7 : 1e5) * GCP_E_CHARGE * pow(hot ? 4.0 : 100.0, urand());
-        const double a = (i % 7 == 0 ? 3.0 + 5.0 * urand() : 20.0 + 70.0 * urand()) * GCP_PI / 180.0;
-        const double lat = 0.3 * (urand() - 0.5);
-        const double s = sin(lat), W = 1.0 - s * s, R = L * GC_RE * W * sqrt(W);
-        b->x[i] = R * cos(lon), b->y[i] = R * sin(lon), b->z[i] = L * GC_RE * W * s;
-        const double X[3] = {b->x[i], b->y[i], b->z[i]};
-        const double p = gc_p_of_T(T, b->m);
-        b->ppar[i] = p * cos(a) * (i % 2 ? 1.0 : -1.0);
-        b->mu[i] = p * sin(a) * p * sin(a) / (2.0 * b->m * gc_Bmag(f, X));
-        b->status[i] = 0, b->steps[i] = 0, b->t[i] = 0.0, b->index[i] = i;
-    }
-    b->n_active = NL;
-}
-
-/* Sampled every step, every 7 steps and never: the same state, time and
- * status bits for every lane; the steps differ by the landings only (one
- * per sampling interval: a lane alive at the end took NST/every - 1 more
- * than unsampled). */
+/* test_gc_slicing.h's scene and check, with the landings: sampled every
+ * step, every 7 steps and never, the same state, time and status bits for
+ * every lane; the steps differ by the landings only. */
 Test(gc_sundman_line, slicing_leaves_the_numbers, .timeout = 120)
 {
-    struct gcp_field *f = gcp_field_dipole_create(GC_B0, 0, GC_RE + 100e3, 0.0);
-    f->r_outer = 6.2 * GC_RE;
-    const struct gcp_pusher_type *P[2] = {&gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman};
-    for (int pk = 0; pk < 2; pk++)
-        for (int el = 0; el < 2; el++) {
-            struct gcp_block b[3];
-            const int64_t every[3] = {0, 1, 7};
-            struct rec r[3] = {{0}, {0}, {0}};
-            for (int v = 0; v < 3; v++) {
-                cr_assert_eq(gcp_block_alloc(&b[v], NL), 0);
-                fill(&b[v], f, el);
-                /* ds ~ 1/30 of a 1 MeV proton's bounce at L = 4 (electrons: 1/30 of 3 ms) */
-                const struct gcp_push_opts o = {0.0, el ? 1e-4 : 0.05, NST, 0.0, 0.1};
-                const struct gcp_sampler smp = {every[v], count, &r[v]};
-                P[pk]->advance(&b[v], f, P[pk], &o, every[v] ? &smp : NULL);
-            }
-            size_t stopped = 0;
-            int kinds[16] = {0};
-            /* lanes retire at the end of the slice they stop in, so their
-             * order differs: compared by index */
-            size_t at[3][NL];
-            for (int v = 0; v < 3; v++)
-                for (size_t i = 0; i < NL; i++) at[v][b[v].index[i]] = i;
-            for (size_t id = 0; id < NL; id++) {
-                const size_t i = at[0][id];
-                stopped += b[0].status[i] != GCP_ALIVE;
-                if (b[0].status[i] >= 0 && b[0].status[i] < 16) kinds[b[0].status[i]]++;
-                for (int v = 1; v < 3; v++) {
-                    const size_t j = at[v][id];
-                    cr_expect_eq(b[v].status[j], b[0].status[i], "%s lane %zu: status %d vs %d, t %.17g vs %.17g, steps %lld vs %lld", P[pk]->name, id, b[v].status[j], b[0].status[i], b[v].t[j], b[0].t[i], (long long)b[v].steps[j], (long long)b[0].steps[i]);
-                    if (b[0].status[i] == GCP_ALIVE)
-                        cr_expect_eq(b[v].steps[j], b[0].steps[i] + (NST + every[v] - 1) / every[v] - 1,
-                                     "%s lane %zu: steps", P[pk]->name, id);
-                    cr_expect(b[v].t[j] == b[0].t[i], "%s lane %zu: t", P[pk]->name, id);
-                    cr_expect(b[v].x[j] == b[0].x[i] && b[v].y[j] == b[0].y[i] &&
-                                  b[v].z[j] == b[0].z[i] && b[v].ppar[j] == b[0].ppar[i],
-                              "%s lane %zu (every %lld): state differs", P[pk]->name, id,
-                              (long long)every[v]);
-                }
-            }
-            cr_log_info("%s %s: %zu of %d stopped (precipitated %d, left %d, non-adiabatic %d, "
-                        "failed %d), samples %d / %d", P[pk]->name, el ? "e-" : "p+", stopped, NL,
-                        kinds[GCP_PRECIPITATED], kinds[GCP_LEFT_DOMAIN], kinds[GCP_NONADIABATIC],
-                        kinds[GCP_STEP_FAILED], r[1].calls, r[2].calls);
-            cr_expect(stopped >= 10 && stopped < NL, "%s: %zu stopped", P[pk]->name, stopped);
-            cr_expect(kinds[GCP_PRECIPITATED] > 0, "%s: none precipitated", P[pk]->name);
-            if (!el) cr_expect(kinds[GCP_NONADIABATIC] > 0, "%s: none non-adiabatic", P[pk]->name);
-            cr_expect_eq(r[1].calls, NST);
-            for (int v = 0; v < 3; v++) gcp_block_free(&b[v]);
-        }
-    gcp_field_free(f);
+    gc_sl_check(&gcp_pusher_gc_gl2_sundman, 1500, 1);
+    gc_sl_check(&gcp_pusher_gc_gl4_sundman, 1500, 1);
 }
 
 /* ---- a lane whose Newton fails ---- */
@@ -360,13 +267,14 @@ Test(gc_sundman_line, slicing_leaves_the_numbers, .timeout = 120)
 #define NF_BAD 5
 static size_t nf_fill(struct gcp_block *b, const struct gcp_field *f, int bad)
 {
-    rs = 0x13198A2E03707344ull;
+    gc_sl_rs = 0x13198A2E03707344ull;
     b->q = GCP_E_CHARGE, b->m = GCP_M_PROTON;
     size_t n = 0;
     for (size_t i = 0; i < NF_N; i++) {
-        const double L = 3.0 + 2.0 * urand(), lon = 2.0 * GCP_PI * urand(), lat = 0.2 * urand();
-        const double T = 1e6 * GCP_E_CHARGE * pow(2.0, urand());
-        const double a = (30.0 + 50.0 * urand()) * GCP_PI / 180.0;
+        const double L = 3.0 + 2.0 * gc_sl_urand(), lon = 2.0 * GCP_PI * gc_sl_urand();
+        const double lat = 0.2 * gc_sl_urand();
+        const double T = 1e6 * GCP_E_CHARGE * pow(2.0, gc_sl_urand());
+        const double a = (30.0 + 50.0 * gc_sl_urand()) * GCP_PI / 180.0;
         if (i == NF_BAD && !bad) continue;
         const int hot = i == NF_BAD;
         const double s = sin(hot ? 0.1 : lat), W = 1.0 - s * s, R = (hot ? 4.0 : L) * GC_RE * W * sqrt(W);
