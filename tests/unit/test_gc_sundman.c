@@ -35,21 +35,17 @@ struct sd_sys {
     double Tb, Td, latm; /* [s], [s], [rad] by the dipole quadratures (test_gc_util.h) */
 };
 
-/* The equatorial pitch [deg] of a dipole orbit mirroring at 82 deg
- * latitude: sin^2 a = 1/b(82 deg), b = B/B_eq of test_gc_util.h. */
-#define SD_PITCH_82 (asin(1.0 / sqrt(gc_dip_b(82.0 * GCP_PI / 180.0))) * 180.0 / GCP_PI)
+#define SD_PITCH_82 GC_PITCH_OF_MIRROR(82.0)
 
-/* 1 MeV electron on the equator at L = 4 with equatorial pitch a_deg. */
+/* 1 MeV electron on the equator at L = 4 with equatorial pitch a_deg
+ * (gc_dip_electron). */
 static void sd_dipole(struct sd_sys *s, double a_deg)
 {
-    s->f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
-    cr_assert_not_null(s->f);
-    const double m = GCP_M_ELECTRON, q = -GCP_E_CHARGE, T = 1e6 * GCP_E_CHARGE;
-    const double a = a_deg * GCP_PI / 180.0, p = gc_p_of_T(T, m);
-    s->X[0] = 4.0 * GC_RE, s->X[1] = 0.0, s->X[2] = 0.0;
-    s->ppar = p * cos(a);
-    s->k = (struct gcp_gc_consts){q, m, p * sin(a) * p * sin(a) / (2.0 * m * gc_Bmag(s->f, s->X))};
-    gc_dip_theory(s->f, q, m, T, 4.0, a, &s->Tb, &s->Td, &s->latm);
+    struct gc_dip_orbit o;
+    cr_assert_eq(gc_dip_electron(&o, a_deg), 0);
+    s->f = o.f, s->k = (struct gcp_gc_consts){o.q, o.m, o.mu};
+    memcpy(s->X, o.X, sizeof s->X);
+    s->ppar = o.ppar, s->Tb = o.Tb, s->Td = o.Td, s->latm = o.latm;
 }
 
 /* A lane of the Gauss-Legendre core at (X, p_par): with the Sundman

@@ -39,22 +39,19 @@ struct sl_sys {
     double Tb, Td, latm;
 };
 
+/* gc_dip_electron's orbit, with the dipole's constant k */
 static void sl_dipole(struct sl_sys *s, double a_deg)
 {
-    s->f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
-    cr_assert_not_null(s->f);
+    struct gc_dip_orbit o;
+    cr_assert_eq(gc_dip_electron(&o, a_deg), 0);
     struct gcp_point_B form;
-    cr_assert(gcp_field_point_B(s->f, &form) && form.form == GCP_POINT_B_DIPOLE);
-    s->k = form.p[0];
-    s->m = GCP_M_ELECTRON, s->q = -GCP_E_CHARGE;
-    const double T = 1e6 * GCP_E_CHARGE, a = a_deg * GCP_PI / 180.0, p = gc_p_of_T(T, s->m);
-    s->X[0] = 4.0 * GC_RE, s->X[1] = 0.0, s->X[2] = 0.0;
-    s->ppar = p * cos(a);
-    s->mu = p * sin(a) * p * sin(a) / (2.0 * s->m * gc_Bmag(s->f, s->X));
-    gc_dip_theory(s->f, s->q, s->m, T, 4.0, a, &s->Tb, &s->Td, &s->latm);
+    cr_assert(gcp_field_point_B(o.f, &form) && form.form == GCP_POINT_B_DIPOLE);
+    s->f = o.f, s->k = form.p[0], s->q = o.q, s->m = o.m, s->mu = o.mu;
+    memcpy(s->X, o.X, sizeof s->X);
+    s->ppar = o.ppar, s->Tb = o.Tb, s->Td = o.Td, s->latm = o.latm;
 }
 
-#define SL_PITCH_82 (asin(1.0 / sqrt(gc_dip_b(82.0 * GCP_PI / 180.0))) * 180.0 / GCP_PI)
+#define SL_PITCH_82 GC_PITCH_OF_MIRROR(82.0)
 
 /* The extended state (phi', s, t, P_phi, P_s, p_t) at (X, p_par), t = 0
  * (gc_gauss_dipole.c's header: L = r^3/R^2, s = z/r, P_s = sgn(k) p_par L
