@@ -42,6 +42,10 @@ __attribute__((visibility("hidden"))) int gcp_dgl_args(struct dgl_args *A,
                                                        const struct gcp_field *f,
                                                        const struct gcp_push_opts *o);
 
+/* The predictor's weights wk of tableau tab (gcp_dgl_args sets A->wk so). */
+__attribute__((visibility("hidden"))) void gcp_dgl_predictor_weights(const struct gl_tableau *tab,
+                                                                     double wk[GL_SMAX][GL_SMAX + 2]);
+
 /* A guiding centre at (x, y, z), p_par [kg m/s], mu [J/T] lifted to the
  * line coordinates (gc_gauss_dipole.c's header):
  *   s = z/r, L = r^3/R^2, Q = sgn(k) p_par g/(m c), beta = 2 mu |k|/(m c^2 L^3),

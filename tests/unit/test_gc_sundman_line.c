@@ -140,100 +140,66 @@ Test(gc_sundman_line, extended_map_is_symplectic, .timeout = 60)
     }
 }
 
-/* Least-squares trend (over the run) and range of the kinetic-energy
- * error of nsteps s-steps of ds from the 82-deg electron's start. */
+/* Least-squares fit of the kinetic-energy error e(t) after every s-step */
+struct sl_fit {
+    double mc2, E0;
+    double n, st, se, stt, ste, emin, emax, t;
+};
+
+static void sl_fit_add(const double y[6], double H, void *ctx)
+{
+    struct sl_fit *F = ctx;
+    const double e = (H - F->mc2) / F->E0 - 1.0, t = y[2];
+    F->n += 1, F->st += t, F->se += e, F->stt += t * t, F->ste += t * e;
+    F->emin = fmin(F->emin, e), F->emax = fmax(F->emax, e), F->t = t;
+}
+
+/* Trend over the run and range of the energy error of nsteps s-steps of
+ * ds from the 82-deg electron's start, every step sampled (sampled
+ * sparsely, e.g. through the pusher's outputs, the slow beat between the
+ * grid of s-steps and the bounce aliases into the fit: tried, every 7 of
+ * dt = T_b/40 gave a trend of 1e-3 of the range over 3e6 s-steps). */
 static void sl_energy_run(const struct sl_sys *S, int64_t nsteps, double ds, int naive,
                           double *trend, double *range, double *bounces)
 {
     double y[6], c04;
     sl_lift(S, S->X, S->ppar, y, &c04);
-    const double mc2 = S->m * GC_C * GC_C, E0 = -y[5] - mc2;
-    double n = 0, st = 0, se = 0, stt = 0, ste = 0, emin = INFINITY, emax = -INFINITY;
-    for (int64_t k = 0; k < nsteps; k++) {
-        double H;
-        cr_assert_eq(gcp_sundman_dipole_step(S->k, S->q, S->m, S->mu, c04, 2, ds, naive, y, &H), 0,
-                     "step %lld", (long long)k);
-        const double e = (H - mc2) / E0 - 1.0, t = y[2];
-        n += 1, st += t, se += e, stt += t * t, ste += t * e;
-        emin = fmin(emin, e), emax = fmax(emax, e);
-    }
-    *trend = fabs((n * ste - st * se) / (n * stt - st * st)) * y[2];
-    *range = emax - emin;
-    *bounces = y[2] / S->Tb;
+    const double mc2 = S->m * GC_C * GC_C;
+    struct sl_fit F = {.mc2 = mc2, .E0 = -y[5] - mc2, .emin = INFINITY, .emax = -INFINITY};
+    cr_assert_eq(gcp_sundman_dipole_run(S->k, S->q, S->m, S->mu, c04, 2, ds, naive, y, nsteps,
+                                        sl_fit_add, &F), 0, "a solve failed after %.0f steps", F.n);
+    *trend = fabs((F.n * F.ste - F.st * F.se) / (F.n * F.stt - F.st * F.st)) * F.t;
+    *range = F.emax - F.emin;
+    *bounces = F.t / S->Tb;
 }
 
-/* The energy error of the pusher's output, sampled every 7 steps of dt =
- * T_b/40 (the lane lands on each sample time beside its grid of s-steps
- * and goes on from the grid: the samples do not change the map; 7/40 of a
- * bounce apart, so the samples sweep the bounce phase: sampled once a
- * bounce, the slow beat between T_b and the numerical bounce period reads
- * as a trend -- tried: 8e-2 of the range), fitted to a line. */
-struct sl_fit {
-    const struct gcp_field *f;
-    double mc, mu, m, E0;       /* E0: the kinetic energy at the start, in units of m c^2 */
-    double n, st, se, stt, ste, emin, emax, t;
-};
-
-static void sl_fit_sample(const struct gcp_block *b, double t, void *ctx)
-{
-    struct sl_fit *F = ctx;
-    if (b->n_active < 1) return;
-    const double X[3] = {b->x[0], b->y[0], b->z[0]};
-    const double p2 = b->ppar[0] * b->ppar[0] + 2.0 * F->m * F->mu * gc_Bmag(F->f, X);
-    const double gm1 = p2 / (F->mc * F->mc) / (sqrt(1.0 + p2 / (F->mc * F->mc)) + 1.0);
-    const double e = gm1 / F->E0 - 1.0;
-    F->n += 1, F->st += t, F->se += e, F->stt += t * t, F->ste += t * e;
-    F->emin = fmin(F->emin, e), F->emax = fmax(F->emax, e), F->t = t;
-}
-
-/* SL_BOUNCES bounces of gc-gl4-sundman (the fused pusher) at ds = T_b/40
- * on the electron mirroring at 82 deg (test_gc_sundman.c's long run, in
- * the line coordinates): ~103.6 s-steps a bounce, 1.005e7 grid s-steps in
- * all (asserted: the issue's 1e7; ~0.3 us a step for one lane, ~3 s CPU).
- * The energy error of a symplectic map oscillates with no secular part: a
- * line fitted to a bounded signal of range A over N periods picks up
- * ~A/N (1e-5 A here), plus the round-off random walk (~1e-16 sqrt(1e7
- * steps) ~ 3e-13): the trend must stay below 1e-3 A.  Measured: A =
- * 1.9e-3, trend 9.1e-6 A (1.8e-8).  A is the outputs' range: the grid's
- * own is 1.5e-4 (the 2e6-step run of gcp_sundman_dipole_step before), the
- * rest is the landing step at mirror points (up to ~3 ds there: w falls
- * along it), bounded too; the trend is 1.2e-4 of the grid's A as well.
- * Under ASan a tenth of the run (1e-4 A expected from the fit alone).
- * The same steps chosen from the state (the plain step of size w(s0) ds,
- * gcp_sundman_dipole_step) over SL_NAIVE steps must drift: trend > 1e-3 A
+/* SL_LONG = 1e7 s-steps of gl4 at ds = T_b/40 on the electron mirroring at
+ * 82 deg (test_gc_sundman.c's long run, in the line coordinates), by the
+ * fused tile's solve for one lane with the pusher's predictor
+ * (gcp_sundman_dipole_run: the pusher's grid steps; ~0.4 us a step, ~4 s):
+ * 96500 bounces.  The energy error of a symplectic map oscillates with no
+ * secular part: a line fitted to a bounded signal of range A over N
+ * periods picks up ~A/N (1e-5 A), plus the round-off random walk (~1e-16
+ * sqrt(1e7) ~ 3e-13): the trend must stay below 1e-3 A.  Measured: A =
+ * 1.5e-4, trend 6.6e-7 A.  Under ASan a tenth of the run (measured:
+ * 4.3e-6 A).  The same steps chosen from the state (the plain
+ * step of size w(s0) ds) over SL_NAIVE steps must drift: trend > 1e-3 A
  * (measured: 1.0 A). */
 #if defined(__SANITIZE_ADDRESS__)
-#define SL_BOUNCES 9700
+#define SL_LONG 1000000
 #else
-#define SL_BOUNCES 97000
+#define SL_LONG 10000000
 #endif
 #define SL_NAIVE 50000
 Test(gc_sundman_line, energy_bounded_long_run, .timeout = 120)
 {
     struct sl_sys S;
     sl_dipole(&S, SL_PITCH_82);
-    struct gcp_block b;
-    cr_assert_eq(gcp_block_alloc(&b, 1), 0);
-    b.q = S.q, b.m = S.m, b.mu[0] = S.mu;
-    b.x[0] = S.X[0], b.y[0] = S.X[1], b.z[0] = S.X[2], b.ppar[0] = S.ppar;
-    b.status[0] = 0, b.steps[0] = 0, b.t[0] = 0.0, b.index[0] = 0, b.n_active = 1;
-    const double mc = S.m * GC_C, pp0 = S.ppar * S.ppar + 2.0 * S.m * S.mu * gc_Bmag(S.f, S.X);
-    struct sl_fit F = {.f = S.f, .mc = mc, .mu = S.mu, .m = S.m,
-                       .E0 = pp0 / (mc * mc) / (sqrt(1.0 + pp0 / (mc * mc)) + 1.0),
-                       .emin = INFINITY, .emax = -INFINITY};
-    const struct gcp_push_opts o = {0.0, S.Tb / 40, 40 * (int64_t)SL_BOUNCES, 0.0, 0.0};
-    const struct gcp_sampler smp = {7, sl_fit_sample, &F};
-    cr_assert_eq(gcp_pusher_gc_gl4_sundman.advance(&b, S.f, &gcp_pusher_gc_gl4_sundman, &o, &smp), 1);
-    /* b.steps counts one landing step per sample besides the grid's */
-    const int64_t grid = b.steps[0] - (int64_t)F.n;
-    double trend = fabs((F.n * F.ste - F.st * F.se) / (F.n * F.stt - F.st * F.st)) * F.t;
-    double range = F.emax - F.emin;
-    cr_log_info("gl4-sundman (line, fused) %lld s-steps (%d bounces): energy range %.2e, trend "
-                "%.2e (%.1e of range)", (long long)grid, SL_BOUNCES, range, trend, trend / range);
-    cr_expect(grid >= SL_BOUNCES * 100LL, "%lld s-steps", (long long)grid);
+    double trend, range, bounces;
+    sl_energy_run(&S, SL_LONG, S.Tb / 40, 0, &trend, &range, &bounces);
+    cr_log_info("gl4-sundman (line) %d s-steps (%.0f bounces): energy range %.2e, trend %.2e "
+                "(%.1e of range)", SL_LONG, bounces, range, trend, trend / range);
     cr_expect(trend < 1e-3 * range, "trend %.2e range %.2e", trend, range);
-    gcp_block_free(&b);
-    double bounces;
     sl_energy_run(&S, SL_NAIVE, S.Tb / 40, 1, &trend, &range, &bounces);
     cr_log_info("naive step from the state %d steps (%.0f bounces): energy range %.2e, trend "
                 "%.2e (%.1e of range)", SL_NAIVE, bounces, range, trend, trend / range);
