@@ -321,22 +321,11 @@ static double dgl_lagrange(const double *x, int m, int n, double xi)
     return v;
 }
 
-int gcp_dgl_args(struct dgl_args *A, const struct gl_tableau *tab, const struct gcp_block *b,
-                 const struct gcp_field *f, const struct gcp_push_opts *o)
+/* The predictor's weights (see the header): nodes -1, -1 + c_i, 0 (in
+ * steps); Y_j = sum_n l_n(c_j) v_n, K = A^-1 (Y - y0)/h. */
+void gcp_dgl_predictor_weights(const struct gl_tableau *tab, double wk[GL_SMAX][GL_SMAX + 2])
 {
-    struct gcp_point_B form;
-    if (!gcp_field_point_B(f, &form) || form.form != GCP_POINT_B_DIPOLE || form.has_E || f->has_E)
-        return -1;
-    if (!(form.p[0] != 0.0) || !(b->q != 0.0) || !(b->m > 0.0)) return -1;
-    memset(A, 0, sizeof *A);
     const int S = tab->s;
-    A->S = S;
-    for (int i = 0; i < S; i++) {
-        A->b[i] = tab->b[i];
-        for (int j = 0; j < S; j++) A->a[i][j] = tab->a[i][j];
-    }
-    /* predictor weights: nodes -1, -1 + c_i, 0 (in steps); Y_j = sum_n
-     * l_n(c_j) v_n, K = A^-1 (Y - y0)/h */
     double x[GL_SMAX + 2];
     x[0] = -1.0;
     for (int i = 0; i < S; i++) x[1 + i] = -1.0 + tab->c[i];
@@ -354,8 +343,25 @@ int gcp_dgl_args(struct dgl_args *A, const struct gl_tableau *tab, const struct 
             double v = 0.0;
             for (int j = 0; j < S; j++)
                 v += Ai[i][j] * (dgl_lagrange(x, S + 2, nn, tab->c[j]) - (nn == S + 1 ? 1.0 : 0.0));
-            A->wk[i][nn] = v;
+            wk[i][nn] = v;
         }
+}
+
+int gcp_dgl_args(struct dgl_args *A, const struct gl_tableau *tab, const struct gcp_block *b,
+                 const struct gcp_field *f, const struct gcp_push_opts *o)
+{
+    struct gcp_point_B form;
+    if (!gcp_field_point_B(f, &form) || form.form != GCP_POINT_B_DIPOLE || form.has_E || f->has_E)
+        return -1;
+    if (!(form.p[0] != 0.0) || !(b->q != 0.0) || !(b->m > 0.0)) return -1;
+    memset(A, 0, sizeof *A);
+    const int S = tab->s;
+    A->S = S;
+    for (int i = 0; i < S; i++) {
+        A->b[i] = tab->b[i];
+        for (int j = 0; j < S; j++) A->a[i][j] = tab->a[i][j];
+    }
+    gcp_dgl_predictor_weights(tab, A->wk);
     A->k = form.p[0];
     A->sgk = form.p[0] > 0.0 ? 1.0 : -1.0;
     A->mc = b->m * GCP_C_LIGHT;

@@ -313,17 +313,21 @@ int gcp_sundman_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
     return 0;
 }
 
-/* One s-step of the extended map on y = (phi', s, t, P_phi, P_s, p_t)
- * (tests/unit/test_gc_sundman.c): the tile's solve for one lane, from
- * K = 0, phi' not wrapped.  plain: the step in t of size w(s0) ds with
- * w = 1 in the flow (p_t kept).  *H = m c^2 gamma at the end.  0, or -1
- * when the solve fails. */
-int gcp_sundman_dipole_step(double k, double q, double m, double mu, double c04, int S, double ds,
-                            int plain, double y[6], double *H)
+/* n s-steps of the extended map on y = (phi', s, t, P_phi, P_s, p_t)
+ * (tests/unit/test_gc_sundman_line.c): the tile's solve for one lane, the
+ * first from K = 0, the next from the predictor of the last step's stages
+ * (the pusher's grid steps), phi' not wrapped; fn(y, H, ctx) after each
+ * step, H = m c^2 gamma at its end.  plain: steps in t of size w(s0) ds
+ * with w = 1 in the flow (p_t kept).  0, or -1 when a solve fails (y is
+ * then the last step's end). */
+int gcp_sundman_dipole_run(double k, double q, double m, double mu, double c04, int S, double ds,
+                           int plain, double y[6], int64_t n,
+                           void (*fn)(const double y[6], double H, void *ctx), void *ctx)
 {
     const struct gl_tableau *tab = S == 1 ? &gcp_gl2_tableau : &gcp_gl4_tableau;
     struct dgl_args A = {.S = S, .k = k, .sgk = k > 0.0 ? 1.0 : -1.0, .mc = m * GCP_C_LIGHT,
                          .q = q, .m = m};
+    gcp_dgl_predictor_weights(tab, A.wk);
     for (int i = 0; i < S; i++) {
         A.b[i] = tab->b[i];
         for (int j = 0; j < S; j++) A.a[i][j] = tab->a[i][j];
@@ -338,25 +342,51 @@ int gcp_sundman_dipole_step(double k, double q, double m, double mu, double c04,
     g->c04[0] = c04, g->pi[0] = y[5] / (m * c2);
     const double p2 = g->Q[0] * g->Q[0] / T + g->beta[0] * gg / (W * W * W);
     g->iqsc[0] = p2 > 0.0 ? 1.0 / sqrt(p2) : 1.0;
-    const double dsp = plain ? sdl_w(s, c04) * ds : ds;
-    g->hh[0] = dsp * GCP_C_LIGHT / L, g->have[0] = 0.0;
-    dgl_predict(S, &A, g, 1);
-    int it = 0;
-    if (plain)
-        while (dgl_iterate(S, 2, &A, g, 1, it) && ++it < DGL_MAXIT) {
-        }
-    else
-        while (dgl_iterate(S, 1, &A, g, 1, it) && ++it < DGL_MAXIT) {
-        }
-    const int failed = dgl_finish(S, 1, &A, g, 1);
-    if (!failed) {
-        y[0] = g->phip[0] + g->hh[0] * g->dp[0];
+    g->have[0] = 0.0;
+    int failed = 0;
+    for (int64_t step = 0; step < n && !failed; step++) {
+        const double dsp = plain ? sdl_w(g->s[0], c04) * ds : ds;
+        g->hh[0] = dsp * GCP_C_LIGHT / L;
+        dgl_predict(S, &A, g, 1);
+        int it = 0;
+        if (plain)
+            while (dgl_iterate(S, 2, &A, g, 1, it) && ++it < DGL_MAXIT) {
+            }
+        else
+            while (dgl_iterate(S, 1, &A, g, 1, it) && ++it < DGL_MAXIT) {
+            }
+        failed = dgl_finish(S, 1, &A, g, 1);
+        if (failed) break;
+        /* the history for the next predictor (sdl_tile_run's), then the end */
+        g->hist[0][0][0] = g->s[0], g->hist[0][1][0] = g->Q[0];
+        for (int st = 0; st < S; st++)
+            g->hist[1 + st][0][0] = g->Y[st][0][0], g->hist[1 + st][1][0] = g->Y[st][1][0];
+        g->have[0] = 1.0;
+        g->phip[0] += g->hh[0] * g->dp[0];
+        g->s[0] = g->s1[0], g->Q[0] = g->Q1[0];
+        y[0] = g->phip[0];
         y[1] = g->s1[0];
         y[2] += dsp * g->dt[0];
         y[4] = g->Q1[0] * A.mc * L;
-        const struct dgl_ev e = dip_eval(g->s1[0], g->Q1[0], g->beta[0], g->w[0]);
-        *H = m * c2 * e.gam;
+        if (fn) {
+            const struct dgl_ev e = dip_eval(g->s1[0], g->Q1[0], g->beta[0], g->w[0]);
+            fn(y, m * c2 * e.gam, ctx);
+        }
     }
     free(g);
     return failed ? -1 : 0;
+}
+
+static void sdl_keep_H(const double y[6], double H, void *ctx)
+{
+    (void)y;
+    *(double *)ctx = H;
+}
+
+/* One s-step of gcp_sundman_dipole_run, from K = 0; *H = m c^2 gamma at
+ * the end. */
+int gcp_sundman_dipole_step(double k, double q, double m, double mu, double c04, int S, double ds,
+                            int plain, double y[6], double *H)
+{
+    return gcp_sundman_dipole_run(k, q, m, mu, c04, S, ds, plain, y, 1, sdl_keep_H, H);
 }

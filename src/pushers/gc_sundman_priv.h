@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "gc_gauss_priv.h"
 
@@ -40,5 +41,10 @@ int gcp_sundman_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
  * in t of size w(s0) ds instead); *H the energy at the end; 0 or -1. */
 int gcp_sundman_dipole_step(double k, double q, double m, double mu, double c04, int S, double ds,
                             int plain, double y[6], double *H);
+/* n such s-steps, the predictor from the last step as the pusher's grid
+ * steps, fn(y, H, ctx) after each; 0 or -1 (y at the last good step). */
+int gcp_sundman_dipole_run(double k, double q, double m, double mu, double c04, int S, double ds,
+                           int plain, double y[6], int64_t n,
+                           void (*fn)(const double y[6], double H, void *ctx), void *ctx);
 
 #endif

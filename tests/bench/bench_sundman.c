@@ -34,10 +34,7 @@ static double cpu_now(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-struct orb {
-    struct gcp_field *f;
-    double q, m, mu, X[3], ppar, Tb, Td, latm;
-};
+#define orb gc_dip_orbit /* test_gc_util.h */
 
 /* n electrons of the orbit, longitude spread; pushed by p with dt, nsteps;
  * status of lane 0, its azimuth, steps of all lanes; CPU seconds */
@@ -110,15 +107,7 @@ int main(void)
            "steps/p", "us/particle", "us/step", "fixed/sd");
     for (int o = 0; o < 3; o++) {
         struct orb O;
-        O.f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
-        O.m = GCP_M_ELECTRON, O.q = -GCP_E_CHARGE;
-        const double T = 1e6 * GCP_E_CHARGE, p = gc_p_of_T(T, O.m);
-        const double lat = lat_deg[o] * GCP_PI / 180.0;
-        const double a = asin(1.0 / sqrt(gc_dip_b(lat)));
-        O.X[0] = 4.0 * GC_RE, O.X[1] = 0.0, O.X[2] = 0.0;
-        O.ppar = p * cos(a);
-        O.mu = p * sin(a) * p * sin(a) / (2.0 * O.m * gc_Bmag(O.f, O.X));
-        gc_dip_theory(O.f, O.q, O.m, T, 4.0, a, &O.Tb, &O.Td, &O.latm);
+        if (gc_dip_electron(&O, GC_PITCH_OF_MIRROR(lat_deg[o]))) return 1;
         double phi_ref;
         int64_t st;
         int s;

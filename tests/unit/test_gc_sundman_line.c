@@ -13,6 +13,8 @@
  *    on the output times beside their grid of s-steps, so a push sampled
  *    at every step, every 7 steps, or never gives the same bits, with lanes
  *    that precipitate and turn non-adiabatic in different tiles.
+ *  - A lane whose Newton solve fails gets STEP_FAILED (NO_CONVERGENCE) at
+ *    its last accepted s-step, and its tile's other lanes do not notice.
  * Orbits: 1 MeV electrons at L = 4 mirroring at 62.9 deg (equatorial pitch
  * 4 deg) and at 82 deg (0.11 deg), as test_gc_sundman.c. */
 #include <math.h>
@@ -27,7 +29,7 @@
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
 #include "pushers/gc_sundman_priv.h"
-#include "test_gc_util.h"
+#include "test_gc_slicing.h"
 
 struct sl_sys {
     struct gcp_field *f;
@@ -37,22 +39,19 @@ struct sl_sys {
     double Tb, Td, latm;
 };
 
+/* gc_dip_electron's orbit, with the dipole's constant k */
 static void sl_dipole(struct sl_sys *s, double a_deg)
 {
-    s->f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
-    cr_assert_not_null(s->f);
+    struct gc_dip_orbit o;
+    cr_assert_eq(gc_dip_electron(&o, a_deg), 0);
     struct gcp_point_B form;
-    cr_assert(gcp_field_point_B(s->f, &form) && form.form == GCP_POINT_B_DIPOLE);
-    s->k = form.p[0];
-    s->m = GCP_M_ELECTRON, s->q = -GCP_E_CHARGE;
-    const double T = 1e6 * GCP_E_CHARGE, a = a_deg * GCP_PI / 180.0, p = gc_p_of_T(T, s->m);
-    s->X[0] = 4.0 * GC_RE, s->X[1] = 0.0, s->X[2] = 0.0;
-    s->ppar = p * cos(a);
-    s->mu = p * sin(a) * p * sin(a) / (2.0 * s->m * gc_Bmag(s->f, s->X));
-    gc_dip_theory(s->f, s->q, s->m, T, 4.0, a, &s->Tb, &s->Td, &s->latm);
+    cr_assert(gcp_field_point_B(o.f, &form) && form.form == GCP_POINT_B_DIPOLE);
+    s->f = o.f, s->k = form.p[0], s->q = o.q, s->m = o.m, s->mu = o.mu;
+    memcpy(s->X, o.X, sizeof s->X);
+    s->ppar = o.ppar, s->Tb = o.Tb, s->Td = o.Td, s->latm = o.latm;
 }
 
-#define SL_PITCH_82 (asin(1.0 / sqrt(gc_dip_b(82.0 * GCP_PI / 180.0))) * 180.0 / GCP_PI)
+#define SL_PITCH_82 GC_PITCH_OF_MIRROR(82.0)
 
 /* The extended state (phi', s, t, P_phi, P_s, p_t) at (X, p_par), t = 0
  * (gc_gauss_dipole.c's header: L = r^3/R^2, s = z/r, P_s = sgn(k) p_par L
@@ -141,36 +140,56 @@ Test(gc_sundman_line, extended_map_is_symplectic, .timeout = 60)
     }
 }
 
-/* Least-squares trend (over the run) and range of the kinetic-energy
- * error of nsteps s-steps of ds from the 82-deg electron's start. */
+/* Least-squares fit of the kinetic-energy error e(t) after every s-step */
+struct sl_fit {
+    double mc2, E0;
+    double n, st, se, stt, ste, emin, emax, t;
+};
+
+static void sl_fit_add(const double y[6], double H, void *ctx)
+{
+    struct sl_fit *F = ctx;
+    const double e = (H - F->mc2) / F->E0 - 1.0, t = y[2];
+    F->n += 1, F->st += t, F->se += e, F->stt += t * t, F->ste += t * e;
+    F->emin = fmin(F->emin, e), F->emax = fmax(F->emax, e), F->t = t;
+}
+
+/* Trend over the run and range of the energy error of nsteps s-steps of
+ * ds from the 82-deg electron's start, every step sampled (sampled
+ * sparsely, e.g. through the pusher's outputs, the slow beat between the
+ * grid of s-steps and the bounce aliases into the fit: tried, every 7 of
+ * dt = T_b/40 gave a trend of 1e-3 of the range over 3e6 s-steps). */
 static void sl_energy_run(const struct sl_sys *S, int64_t nsteps, double ds, int naive,
                           double *trend, double *range, double *bounces)
 {
     double y[6], c04;
     sl_lift(S, S->X, S->ppar, y, &c04);
-    const double mc2 = S->m * GC_C * GC_C, E0 = -y[5] - mc2;
-    double n = 0, st = 0, se = 0, stt = 0, ste = 0, emin = INFINITY, emax = -INFINITY;
-    for (int64_t k = 0; k < nsteps; k++) {
-        double H;
-        cr_assert_eq(gcp_sundman_dipole_step(S->k, S->q, S->m, S->mu, c04, 2, ds, naive, y, &H), 0,
-                     "step %lld", (long long)k);
-        const double e = (H - mc2) / E0 - 1.0, t = y[2];
-        n += 1, st += t, se += e, stt += t * t, ste += t * e;
-        emin = fmin(emin, e), emax = fmax(emax, e);
-    }
-    *trend = fabs((n * ste - st * se) / (n * stt - st * st)) * y[2];
-    *range = emax - emin;
-    *bounces = y[2] / S->Tb;
+    const double mc2 = S->m * GC_C * GC_C;
+    struct sl_fit F = {.mc2 = mc2, .E0 = -y[5] - mc2, .emin = INFINITY, .emax = -INFINITY};
+    cr_assert_eq(gcp_sundman_dipole_run(S->k, S->q, S->m, S->mu, c04, 2, ds, naive, y, nsteps,
+                                        sl_fit_add, &F), 0, "a solve failed after %.0f steps", F.n);
+    *trend = fabs((F.n * F.ste - F.st * F.se) / (F.n * F.stt - F.st * F.st)) * F.t;
+    *range = F.emax - F.emin;
+    *bounces = F.t / S->Tb;
 }
 
-/* SL_LONG s-steps of gl4 at ds = T_b/40 on the electron mirroring at 82
- * deg (test_gc_sundman.c's long run, in the line coordinates).  The energy
- * error of a symplectic map oscillates with no secular part: a line fitted
- * to a bounded signal of range A over N periods picks up ~A/N, plus the
- * round-off random walk (~1e-16 sqrt(N steps) ~ 1e-13): the trend must
- * stay below 1e-3 A.  The same steps chosen from the state (the plain step
- * of size w(s0) ds) over SL_NAIVE steps must drift: trend > 1e-3 A. */
-#define SL_LONG 2000000
+/* SL_LONG = 1e7 s-steps of gl4 at ds = T_b/40 on the electron mirroring at
+ * 82 deg (test_gc_sundman.c's long run, in the line coordinates), by the
+ * fused tile's solve for one lane with the pusher's predictor
+ * (gcp_sundman_dipole_run: the pusher's grid steps; ~0.4 us a step, ~4 s):
+ * 96500 bounces.  The energy error of a symplectic map oscillates with no
+ * secular part: a line fitted to a bounded signal of range A over N
+ * periods picks up ~A/N (1e-5 A), plus the round-off random walk (~1e-16
+ * sqrt(1e7) ~ 3e-13): the trend must stay below 1e-3 A.  Measured: A =
+ * 1.5e-4, trend 6.6e-7 A.  Under ASan a tenth of the run (measured:
+ * 4.3e-6 A).  The same steps chosen from the state (the plain
+ * step of size w(s0) ds) over SL_NAIVE steps must drift: trend > 1e-3 A
+ * (measured: 1.0 A). */
+#if defined(__SANITIZE_ADDRESS__)
+#define SL_LONG 1000000
+#else
+#define SL_LONG 10000000
+#endif
 #define SL_NAIVE 50000
 Test(gc_sundman_line, energy_bounded_long_run, .timeout = 120)
 {
@@ -191,104 +210,124 @@ Test(gc_sundman_line, energy_bounded_long_run, .timeout = 120)
 
 /* ---- slicing ---- */
 
-static uint64_t rs;
-static double urand(void)
-{
-    rs = rs * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(rs >> 11) * 0x1.0p-53;
-}
-
-#define NL 150
-#define NST 1500
-
-struct rec {
-    int calls;
-};
-static void count(const struct gcp_block *b, double t, void *ctx)
-{
-    (void)b, (void)t;
-    ((struct rec *)ctx)->calls++;
-}
-
-/* test_gc_dipole_line.c's scene: NL protons or electrons, trapped (L = 2
- * .. 6.2), every 7th inside the loss cone (precipitates), every 9th proton
- * of 50-200 MeV (non-adiabatic at amax = 0.1). */
-static void fill(struct gcp_block *b, const struct gcp_field *f, int el)
-{
-    rs = 0x243F6A8885A308D3ull + (uint64_t)el;
-    b->q = el ? -GCP_E_CHARGE : GCP_E_CHARGE, b->m = el ? GCP_M_ELECTRON : GCP_M_PROTON;
-    for (size_t i = 0; i < NL; i++) {
-        const double L = 2.0 + 4.2 * urand(), lon = 2.0 * GCP_PI * urand();
-        const int hot = !el && (i % 9 == 0);
-        const double T = (hot ? 5e7 : 1e5) * GCP_E_CHARGE * pow(hot ? 4.0 : 100.0, urand());
-        const double a = (i % 7 == 0 ? 3.0 + 5.0 * urand() : 20.0 + 70.0 * urand()) * GCP_PI / 180.0;
-        const double lat = 0.3 * (urand() - 0.5);
-        const double s = sin(lat), W = 1.0 - s * s, R = L * GC_RE * W * sqrt(W);
-        b->x[i] = R * cos(lon), b->y[i] = R * sin(lon), b->z[i] = L * GC_RE * W * s;
-        const double X[3] = {b->x[i], b->y[i], b->z[i]};
-        const double p = gc_p_of_T(T, b->m);
-        b->ppar[i] = p * cos(a) * (i % 2 ? 1.0 : -1.0);
-        b->mu[i] = p * sin(a) * p * sin(a) / (2.0 * b->m * gc_Bmag(f, X));
-        b->status[i] = 0, b->steps[i] = 0, b->t[i] = 0.0, b->index[i] = i;
-    }
-    b->n_active = NL;
-}
-
-/* Sampled every step, every 7 steps and never: the same state, time and
- * status bits for every lane; the steps differ by the landings only (one
- * per sampling interval: a lane alive at the end took NST/every - 1 more
- * than unsampled). */
+/* test_gc_slicing.h's scene and check, with the landings: sampled every
+ * step, every 7 steps and never, the same state, time and status bits for
+ * every lane; the steps differ by the landings only. */
 Test(gc_sundman_line, slicing_leaves_the_numbers, .timeout = 120)
 {
-    struct gcp_field *f = gcp_field_dipole_create(GC_B0, 0, GC_RE + 100e3, 0.0);
-    f->r_outer = 6.2 * GC_RE;
-    const struct gcp_pusher_type *P[2] = {&gcp_pusher_gc_gl2_sundman, &gcp_pusher_gc_gl4_sundman};
-    for (int pk = 0; pk < 2; pk++)
-        for (int el = 0; el < 2; el++) {
-            struct gcp_block b[3];
-            const int64_t every[3] = {0, 1, 7};
-            struct rec r[3] = {{0}, {0}, {0}};
-            for (int v = 0; v < 3; v++) {
-                cr_assert_eq(gcp_block_alloc(&b[v], NL), 0);
-                fill(&b[v], f, el);
-                /* ds ~ 1/30 of a 1 MeV proton's bounce at L = 4 (electrons: 1/30 of 3 ms) */
-                const struct gcp_push_opts o = {0.0, el ? 1e-4 : 0.05, NST, 0.0, 0.1};
-                const struct gcp_sampler smp = {every[v], count, &r[v]};
-                P[pk]->advance(&b[v], f, P[pk], &o, every[v] ? &smp : NULL);
-            }
-            size_t stopped = 0;
-            int kinds[16] = {0};
-            /* lanes retire at the end of the slice they stop in, so their
-             * order differs: compared by index */
-            size_t at[3][NL];
-            for (int v = 0; v < 3; v++)
-                for (size_t i = 0; i < NL; i++) at[v][b[v].index[i]] = i;
-            for (size_t id = 0; id < NL; id++) {
-                const size_t i = at[0][id];
-                stopped += b[0].status[i] != GCP_ALIVE;
-                if (b[0].status[i] >= 0 && b[0].status[i] < 16) kinds[b[0].status[i]]++;
-                for (int v = 1; v < 3; v++) {
-                    const size_t j = at[v][id];
-                    cr_expect_eq(b[v].status[j], b[0].status[i], "%s lane %zu: status %d vs %d, t %.17g vs %.17g, steps %lld vs %lld", P[pk]->name, id, b[v].status[j], b[0].status[i], b[v].t[j], b[0].t[i], (long long)b[v].steps[j], (long long)b[0].steps[i]);
-                    if (b[0].status[i] == GCP_ALIVE)
-                        cr_expect_eq(b[v].steps[j], b[0].steps[i] + (NST + every[v] - 1) / every[v] - 1,
-                                     "%s lane %zu: steps", P[pk]->name, id);
-                    cr_expect(b[v].t[j] == b[0].t[i], "%s lane %zu: t", P[pk]->name, id);
-                    cr_expect(b[v].x[j] == b[0].x[i] && b[v].y[j] == b[0].y[i] &&
-                                  b[v].z[j] == b[0].z[i] && b[v].ppar[j] == b[0].ppar[i],
-                              "%s lane %zu (every %lld): state differs", P[pk]->name, id,
-                              (long long)every[v]);
-                }
-            }
-            cr_log_info("%s %s: %zu of %d stopped (precipitated %d, left %d, non-adiabatic %d, "
-                        "failed %d), samples %d / %d", P[pk]->name, el ? "e-" : "p+", stopped, NL,
-                        kinds[GCP_PRECIPITATED], kinds[GCP_LEFT_DOMAIN], kinds[GCP_NONADIABATIC],
-                        kinds[GCP_STEP_FAILED], r[1].calls, r[2].calls);
-            cr_expect(stopped >= 10 && stopped < NL, "%s: %zu stopped", P[pk]->name, stopped);
-            cr_expect(kinds[GCP_PRECIPITATED] > 0, "%s: none precipitated", P[pk]->name);
-            if (!el) cr_expect(kinds[GCP_NONADIABATIC] > 0, "%s: none non-adiabatic", P[pk]->name);
-            cr_expect_eq(r[1].calls, NST);
-            for (int v = 0; v < 3; v++) gcp_block_free(&b[v]);
+    gc_sl_check(&gcp_pusher_gc_gl2_sundman, 1500, 1);
+    gc_sl_check(&gcp_pusher_gc_gl4_sundman, 1500, 1);
+}
+
+/* ---- a lane whose Newton fails ---- */
+
+/* NF_N protons of 1-2 MeV (L = 3 .. 5, pitch 30 .. 80 deg, near the
+ * equator; T_b ~ 7 s) that gc-gl4-sundman steps at ds = 0.5 s, and at lane
+ * NF_BAD a 100 MeV proton of pitch 60 deg at L = 4 (T_b ~ 0.65 s) whose
+ * s-step is ~0.8 of its bounce: its Newton solve stops contracting after
+ * an accepted step (measured: 1).  bad = 0: the block without that lane. */
+#define NF_N 24
+#define NF_BAD 5
+static size_t nf_fill(struct gcp_block *b, const struct gcp_field *f, int bad)
+{
+    gc_sl_rs = 0x13198A2E03707344ull;
+    b->q = GCP_E_CHARGE, b->m = GCP_M_PROTON;
+    size_t n = 0;
+    for (size_t i = 0; i < NF_N; i++) {
+        const double L = 3.0 + 2.0 * gc_sl_urand(), lon = 2.0 * GCP_PI * gc_sl_urand();
+        const double lat = 0.2 * gc_sl_urand();
+        const double T = 1e6 * GCP_E_CHARGE * pow(2.0, gc_sl_urand());
+        const double a = (30.0 + 50.0 * gc_sl_urand()) * GCP_PI / 180.0;
+        if (i == NF_BAD && !bad) continue;
+        const int hot = i == NF_BAD;
+        const double s = sin(hot ? 0.1 : lat), W = 1.0 - s * s, R = (hot ? 4.0 : L) * GC_RE * W * sqrt(W);
+        b->x[n] = R * cos(lon), b->y[n] = R * sin(lon), b->z[n] = (hot ? 4.0 : L) * GC_RE * W * s;
+        const double X[3] = {b->x[n], b->y[n], b->z[n]};
+        const double p = gc_p_of_T(hot ? 1e8 * GCP_E_CHARGE : T, b->m), ah = hot ? GCP_PI / 3 : a;
+        b->ppar[n] = p * cos(ah);
+        b->mu[n] = p * sin(ah) * p * sin(ah) / (2.0 * b->m * gc_Bmag(f, X));
+        b->status[n] = 0, b->steps[n] = 0, b->t[n] = 0.0, b->index[n] = i;
+        n++;
+    }
+    b->n_active = n;
+    return n;
+}
+
+/* The failure path of the fused form (gc_sundman_dipole.c): the lane
+ * whose solve fails gets STEP_FAILED with reason NO_CONVERGENCE, at the
+ * state and time of its last grid point (nothing of the failed step is
+ * kept, GSL odeiv2's contract): that state is its k accepted s-steps, as
+ * the one-s-step map gcp_sundman_dipole_step gives them from the start
+ * (its Newton starts from K = 0, not the tile's predictor: the same
+ * solution to the solve's tolerance, 1e-15 of the step's increments; 1e-12
+ * of L asserted, where one s-step moves the lane by ~L).  (The map's next
+ * step from K = 0 converges here, where the tile's, from the predictor,
+ * does not: which start fails is not a property of the step, so it is not
+ * asserted.)  The other lanes of its tile are untouched: bit-identical to
+ * the run without it. */
+Test(gc_sundman_line, newton_failure_fails_one_lane, .timeout = 60)
+{
+    struct gcp_field *f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
+    struct gcp_point_B form;
+    cr_assert(gcp_field_point_B(f, &form) && form.form == GCP_POINT_B_DIPOLE);
+    const struct gcp_pusher_type *P = &gcp_pusher_gc_gl4_sundman;
+    const struct gcp_push_opts o = {0.0, 0.5, 40, 0.0, 0.0};
+    struct gcp_block b[2];
+    size_t n[2];
+    for (int v = 0; v < 2; v++) {
+        cr_assert_eq(gcp_block_alloc(&b[v], NF_N), 0);
+        n[v] = nf_fill(&b[v], f, v);
+    }
+    /* the bad lane's start, before the push */
+    const size_t jb = NF_BAD;
+    const double X0[3] = {b[1].x[jb], b[1].y[jb], b[1].z[jb]}, pp0 = b[1].ppar[jb], mu0 = b[1].mu[jb];
+    size_t live[2];
+    for (int v = 0; v < 2; v++) live[v] = P->advance(&b[v], f, P, &o, NULL);
+    cr_expect_eq(live[0], n[0], "the block without the bad lane: %zu of %zu alive", live[0], n[0]);
+    cr_expect_eq(live[1], n[1] - 1, "with it: %zu of %zu alive", live[1], n[1]);
+    size_t at[2][NF_N];
+    for (int v = 0; v < 2; v++)
+        for (size_t i = 0; i < n[v]; i++) at[v][b[v].index[i]] = i;
+    int failed = 0;
+    for (size_t id = 0; id < NF_N; id++) {
+        const size_t j = at[1][id];
+        if (id == NF_BAD) {
+            failed = b[1].status[j] == GCP_STEP_FAILED;
+            cr_expect_eq(b[1].status[j], GCP_STEP_FAILED, "bad lane: status %d", b[1].status[j]);
+            cr_expect_eq(b[1].step_failure[j], GCP_FAIL_NO_CONVERGENCE, "bad lane: %s",
+                         gcp_step_failure_name(b[1].step_failure[j]));
+            continue;
         }
+        const size_t i = at[0][id];
+        cr_expect(b[1].status[j] == b[0].status[i] && b[1].steps[j] == b[0].steps[i] &&
+                      b[1].t[j] == b[0].t[i] && b[1].x[j] == b[0].x[i] && b[1].y[j] == b[0].y[i] &&
+                      b[1].z[j] == b[0].z[i] && b[1].ppar[j] == b[0].ppar[i],
+                  "lane %zu differs beside the failed lane", id);
+    }
+    cr_assert(failed);
+    /* the failed lane: k accepted s-steps of the map from its start, and
+     * the map's step k + 1 fails */
+    const size_t j = at[1][NF_BAD];
+    const int64_t k = b[1].steps[j];
+    cr_log_info("bad lane: STEP_FAILED (%s) after %lld s-steps at t = %.6g s",
+                gcp_step_failure_name(b[1].step_failure[j]), (long long)k, b[1].t[j]);
+    cr_expect(k >= 1 && b[1].t[j] > 0.0 && b[1].t[j] < 20.0, "k %lld t %g", (long long)k, b[1].t[j]);
+    struct sl_sys S = {.f = f, .k = form.p[0], .q = b[1].q, .m = b[1].m, .mu = mu0};
+    double y[6], c04, H;
+    sl_lift(&S, X0, pp0, y, &c04);
+    for (int64_t s = 0; s < k; s++)
+        cr_assert_eq(gcp_sundman_dipole_step(S.k, S.q, S.m, S.mu, c04, 2, o.dt, 0, y, &H), 0,
+                     "map step %lld", (long long)s);
+    const double L = -S.q * S.k / y[3], sv = y[1], Wv = 1.0 - sv * sv;
+    const double phi = y[0] + (-S.m * GC_C * L * L / (S.q * S.k)) * 2.0 * sv * Wv *
+                                  (y[4] / (S.m * GC_C * L)) / (1.0 + 3.0 * sv * sv);
+    const double R = L * Wv * sqrt(Wv), Xm[3] = {R * cos(phi), R * sin(phi), L * Wv * sv};
+    const double rr = L;
+    cr_expect(fabs(b[1].x[j] - Xm[0]) < 1e-12 * rr && fabs(b[1].y[j] - Xm[1]) < 1e-12 * rr &&
+                  fabs(b[1].z[j] - Xm[2]) < 1e-12 * rr && fabs(b[1].t[j] - y[2]) < 1e-12 * y[2],
+              "restored state (%.17g %.17g %.17g, t %.17g) vs the map's k steps (%.17g %.17g "
+              "%.17g, t %.17g)", b[1].x[j], b[1].y[j], b[1].z[j], b[1].t[j], Xm[0], Xm[1], Xm[2],
+              y[2]);
+    for (int v = 0; v < 2; v++) gcp_block_free(&b[v]);
     gcp_field_free(f);
 }

@@ -140,6 +140,34 @@ static inline void gc_dip_theory(const struct gcp_field *f, double q, double m, 
     *Td = 2.0 * GCP_PI * *Tb / fabs(dphi);
 }
 
+/* The equatorial pitch [deg] of a dipole orbit mirroring at lat_deg
+ * latitude: sin^2 a = 1/b(lat). */
+#define GC_PITCH_OF_MIRROR(lat_deg) \
+    (asin(1.0 / sqrt(gc_dip_b((lat_deg) * GCP_PI / 180.0))) * 180.0 / GCP_PI)
+
+/* The Sundman tests' and bench's orbit (test_gc_sundman.c,
+ * test_gc_sundman_line.c, bench_sundman.c): a 1 MeV electron on the
+ * equator at L = 4 in Earth's dipole (no surface) with equatorial pitch
+ * a_deg, its mu from |B| there, and T_b, T_d, the mirror latitude by the
+ * quadratures above.  The caller frees o->f.  0, or -1 without a field. */
+struct gc_dip_orbit {
+    struct gcp_field *f;
+    double q, m, mu, X[3], ppar;
+    double Tb, Td, latm; /* [s], [s], [rad] */
+};
+static inline int gc_dip_electron(struct gc_dip_orbit *o, double a_deg)
+{
+    o->f = gcp_field_dipole_create(GC_B0, 0, 0.0, 0.0);
+    if (!o->f) return -1;
+    o->m = GCP_M_ELECTRON, o->q = -GCP_E_CHARGE;
+    const double T = 1e6 * GCP_E_CHARGE, a = a_deg * GCP_PI / 180.0, p = gc_p_of_T(T, o->m);
+    o->X[0] = 4.0 * GC_RE, o->X[1] = 0.0, o->X[2] = 0.0;
+    o->ppar = p * cos(a);
+    o->mu = p * sin(a) * p * sin(a) / (2.0 * o->m * gc_Bmag(o->f, o->X));
+    gc_dip_theory(o->f, o->q, o->m, T, 4.0, a, &o->Tb, &o->Td, &o->latm);
+    return 0;
+}
+
 /* ---- orbit recorder ---- */
 struct gc_rec {
     const struct gcp_field *f;
