@@ -180,12 +180,17 @@ static void select_rows(hid_t fspace, const struct gcp_results *r, int rank, con
 {
     H5Sselect_none(fspace);
     int64_t k = 0;
+    /* the first run SET, not OR'ed onto none: a single run (one rank's
+     * sorted rows) stays a regular hyperslab, which HDF5 maps onto chunks
+     * block by block instead of element by element */
+    H5S_seloper_t op = H5S_SELECT_SET;
     while (k < r->n) {
         int64_t e = k + 1;
         while (e < r->n && r->id[e] == r->id[e - 1] + 1) e++;
         hsize_t start[3] = {(hsize_t)r->id[k], 0, 0};
         hsize_t count[3] = {(hsize_t)(e - k), rank > 1 ? dims[1] : 1, rank > 2 ? dims[2] : 1};
-        H5Sselect_hyperslab(fspace, H5S_SELECT_OR, start, NULL, count, NULL);
+        H5Sselect_hyperslab(fspace, op, start, NULL, count, NULL);
+        op = H5S_SELECT_OR;
         k = e;
     }
 }
@@ -213,10 +218,16 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     } else {
         select_rows(fspace, w->r, rank, dims);
     }
-    hsize_t mdims = (hsize_t)nrows * per_row;
+    /* the rows in memory in the dataset's own shape {nrows, d1, d2}: where
+     * the file selection is one block, HDF5 then sees the two selections of
+     * the same shape and maps a chunked dataset's chunks in whole blocks; a
+     * flat memory space made it walk every element (H5S_select_iterate:
+     * ~1e6 calls for the flagship's trajectory x on one rank) */
+    hsize_t mdims[3] = {(hsize_t)nrows, d1, d2};
     hsize_t one = 1;
-    hid_t mspace = H5Screate_simple(1, mdims ? &mdims : &one, NULL);
-    if (!mdims) H5Sselect_none(mspace);
+    const hsize_t mcount = (hsize_t)nrows * per_row;
+    hid_t mspace = mcount ? H5Screate_simple(rank, mdims, NULL) : H5Screate_simple(1, &one, NULL);
+    if (!mcount) H5Sselect_none(mspace);
     /* every rank calls H5Dwrite (collective), with a dummy buffer if the
      * move failed: w->bad then fails the whole file */
     static const char dummy[64];
