@@ -4,7 +4,7 @@
  * Each rank holds its rows sorted by particle id and writes them in place
  * (past ~1000 runs of ids per rank the rows are moved first, one Alltoallv
  * per column, so that each rank holds one block of consecutive ids: struct
- * writer, output_rows.c).  Datasets, groups and attributes are created
+ * writer, output_rows.c; the trajectories are moved always).  Datasets, groups and attributes are created
  * collectively; the rows of contiguous datasets go in with independent
  * writes (each rank's own pwrites), only the chunked, deflated
  * trajectories with collective ones.  The file is
@@ -406,7 +406,12 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     for (int64_t k = 0; k < r->n; k++) runs += k == 0 || r->id[k] != r->id[k - 1] + 1;
     MPI_Allreduce(MPI_IN_PLACE, &runs, 1, MPI_INT64_T, MPI_MAX, comm);
     if (r->S) w.unit = gcp_writer_trajectory_rows(sc->total);
-    if (nranks > 1 && (runs > gcp_writer_spread_runs() || r->S)) gcp_writer_spread_plan(&w);
+    /* Only the trajectories are moved where the runs are few: a contiguous
+     * column goes in place with each rank's own pwrites, no collective,
+     * where its move cost an Allreduce and an Alltoallv per column (~40 of
+     * them on the flagship, each a wait for the slower rank). */
+    w.move_all = runs > gcp_writer_spread_runs();
+    if (nranks > 1 && (w.move_all || r->S)) gcp_writer_spread_plan(&w);
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
     gcp_phase_mark("w-plan");
     if (w.bad) {

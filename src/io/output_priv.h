@@ -26,6 +26,8 @@ struct writer {
      * particles) made HDF5's selection and collective write quadratic. */
     MPI_Comm comm;
     int spread;              /* rows moved (more than one rank) */
+    int move_all;            /* every column moved (past gcp_writer_spread_runs runs), else
+                              * only the chunked trajectories' */
     int64_t unit;            /* blocks are whole units of rows (trajectory chunk rows), 0: 1 */
     int64_t lo, hi;
     int *scount, *sdispl, *rcount, *rdispl; /* rows to / from each rank */

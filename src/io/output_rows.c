@@ -203,14 +203,15 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     hsize_t dims[3] = {(hsize_t)w->total, d1, d2};
     const hsize_t per_row = (rank > 1 ? d1 : 1) * (rank > 2 ? d2 : 1);
     int64_t nrows = w->r->n;
-    if (w->spread) {
+    const int moved = w->spread && (w->move_all || dcpl != H5P_DEFAULT);
+    if (moved) {
         data = spread_column(w, data, per_row * H5Tget_size(type));
         if (!data) w->bad = 1;
         nrows = w->hi - w->lo;
     }
     hid_t fspace = H5Screate_simple(rank, dims, NULL);
     hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, dcpl, H5P_DEFAULT);
-    if (w->spread) {
+    if (moved) {
         hsize_t start[3] = {(hsize_t)w->lo, 0, 0};
         hsize_t count[3] = {(hsize_t)nrows, rank > 1 ? d1 : 1, rank > 2 ? d2 : 1};
         if (nrows) H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL);
@@ -236,7 +237,7 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     if (!data) {
         H5Sselect_none(fspace);
         H5Sselect_none(mspace);
-        if (nrows == 0 && !w->spread) data = dummy;
+        if (nrows == 0 && !moved) data = dummy;
     }
     /* contiguous datasets: independent writes, each rank's runs of rows
      * with its own pwrites.  A collective write's two-phase exchange cost
