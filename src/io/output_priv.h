@@ -37,6 +37,7 @@ struct writer {
     const char *output;      /* for progress lines */
     double t0, last;         /* wall clock: write start, last progress line */
     int ndone;               /* datasets written */
+    int64_t *evcnt;          /* the event tables' shared counts (output_events_priv.h), or NULL */
 };
 
 static inline double wall(void) { return MPI_Wtime(); }
