@@ -4,7 +4,7 @@
  * Each rank holds its rows sorted by particle id and writes them in place
  * (past ~1000 runs of ids per rank the rows are moved first, one Alltoallv
  * per column, so that each rank holds one block of consecutive ids: struct
- * writer, output_rows.c).  Datasets, groups and attributes are created
+ * writer, output_rows.c; the trajectories are moved always).  Datasets, groups and attributes are created
  * collectively; the rows of contiguous datasets go in with independent
  * writes (each rank's own pwrites), only the chunked, deflated
  * trajectories with collective ones.  The file is
@@ -164,7 +164,7 @@ static void write_trajectories(struct writer *w)
 /* The event tables (output_events.c) with this writer's file, transfer and rows. */
 static struct gcp_ev_writer ev_writer(const struct writer *w)
 {
-    return (struct gcp_ev_writer){w->file, w->dxpl_ind, w->r, w->total, 0};
+    return (struct gcp_ev_writer){w->file, w->dxpl_ind, w->r, w->total, 0, w->evcnt};
 }
 
 static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm comm)
@@ -406,7 +406,12 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     for (int64_t k = 0; k < r->n; k++) runs += k == 0 || r->id[k] != r->id[k - 1] + 1;
     MPI_Allreduce(MPI_IN_PLACE, &runs, 1, MPI_INT64_T, MPI_MAX, comm);
     if (r->S) w.unit = gcp_writer_trajectory_rows(sc->total);
-    if (nranks > 1 && (runs > gcp_writer_spread_runs() || r->S)) gcp_writer_spread_plan(&w);
+    /* Only the trajectories are moved where the runs are few: a contiguous
+     * column goes in place with each rank's own pwrites, no collective,
+     * where its move cost an Allreduce and an Alltoallv per column (~40 of
+     * them on the flagship, each a wait for the slower rank). */
+    w.move_all = runs > gcp_writer_spread_runs();
+    if (nranks > 1 && (w.move_all || r->S)) gcp_writer_spread_plan(&w);
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);
     gcp_phase_mark("w-plan");
     if (w.bad) {
@@ -462,6 +467,17 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     w.dxpl_ind = H5Pcreate(H5P_DATASET_XFER);
     H5Pset_dxpl_mpio(w.dxpl_ind, H5FD_MPIO_INDEPENDENT);
 
+    /* the event tables' counts, allocated once and agreed on once for all
+     * of them (else each table agrees on its own allocations) */
+    if (sc->invariants || sc->events || r->hybrid) {
+        w.evcnt = calloc((size_t)(sc->total + 1), sizeof *w.evcnt);
+        int nocnt = !w.evcnt;
+        MPI_Allreduce(MPI_IN_PLACE, &nocnt, 1, MPI_INT, MPI_MAX, comm);
+        if (nocnt) {
+            free(w.evcnt);
+            w.evcnt = NULL;
+        }
+    }
     gcp_h5_root_attrs(&w.bad, w.file, sc, nranks);
     write_particles(&w, sc);
     gcp_phase_mark("w-particles");
@@ -476,6 +492,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
 
     H5Pclose(w.dxpl);
     H5Pclose(w.dxpl_ind);
+    free(w.evcnt);
     gcp_writer_spread_free(&w);
     if (H5Fclose(w.file) < 0) w.bad = 1;
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);

@@ -45,30 +45,44 @@ static int64_t ev_id(const struct gcp_events *ev, int scalar, int64_t k)
     return scalar ? ev->s[k].id : ev->e[k].id;
 }
 
-static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev_sel *sel)
+/* Selects this rank's events of `kind` and their file rows; `local_bad`
+ * (the caller's own allocations) joins the agreement.  With the writer's
+ * shared counts (w->cnt) that agreement rides on the counts' Allreduce, as
+ * entry N: one collective per table, where a wait for the slower rank each
+ * time cost 2 ranks ~2 ms a table under load. */
+static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev_sel *sel,
+                     int local_bad)
 {
     const struct gcp_results *r = w->r;
     const int64_t N = w->total;
     memset(sel, 0, sizeof *sel);
-    int64_t *cnt = calloc((size_t)(N ? N : 1), sizeof *cnt);
+    int64_t *cnt = w->cnt ? w->cnt : calloc((size_t)(N + 1), sizeof *cnt);
+    if (w->cnt) memset(cnt, 0, (size_t)(N + 1) * sizeof *cnt);
     sel->scalar = gcp_event_scalar(kind);
     const int64_t nev = sel->scalar ? r->ev.ns : r->ev.n;
     sel->idx = malloc((size_t)(nev ? nev : 1) * sizeof *sel->idx);
     sel->row = malloc((size_t)(nev ? nev : 1) * sizeof *sel->row);
-    int bad = !cnt || !sel->idx || !sel->row;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (bad) {
-        free(cnt);
-        return -1;
+    int bad = !cnt || !sel->idx || !sel->row || local_bad;
+    if (!w->cnt) {
+        MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+        if (bad) {
+            free(cnt);
+            return -1;
+        }
     }
-    for (int64_t k = 0; k < nev; k++) {
+    for (int64_t k = 0; k < nev && !bad; k++) {
         const int64_t id = ev_id(&r->ev, sel->scalar, k);
         const int32_t kd = sel->scalar ? r->ev.s[k].kind : r->ev.e[k].kind;
         if (kd != kind || id < 0 || id >= N) continue;
         sel->idx[sel->n++] = k;
         cnt[id]++;
     }
-    MPI_Allreduce(MPI_IN_PLACE, cnt, (int)N, MPI_INT64_T, MPI_SUM, comm);
+    cnt[N] = bad;
+    MPI_Allreduce(MPI_IN_PLACE, cnt, (int)(N + 1), MPI_INT64_T, MPI_SUM, comm);
+    if (cnt[N]) {
+        if (!w->cnt) free(cnt);
+        return -1;
+    }
     /* cnt -> first row of each particle */
     int64_t acc = 0;
     for (int64_t i = 0; i < N; i++) {
@@ -78,7 +92,7 @@ static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev
     }
     sel->M = acc;
     for (int64_t j = 0; j < sel->n; j++) sel->row[j] = cnt[ev_id(&r->ev, sel->scalar, sel->idx[j])]++;
-    free(cnt);
+    if (!w->cnt) free(cnt);
     return 0;
 }
 
@@ -136,20 +150,30 @@ void gcp_output_event_table(struct gcp_ev_writer *w, hid_t parent, const char *n
                            MPI_Comm comm)
 {
     const struct gcp_results *r = w->r;
-    struct ev_sel sel;
-    if (ev_select(w, kind, comm, &sel)) {
-        w->bad = 1;
-        return;
-    }
-    hid_t g = group(w, parent, name);
-    const size_t n = (size_t)(sel.n ? sel.n : 1);
+    /* the rows' buffers first (this rank's events of the kind), so that
+     * their failure joins the one agreement in ev_select */
+    int64_t nk = 0;
+    if (gcp_event_scalar(kind))
+        for (int64_t k = 0; k < r->ev.ns; k++) nk += r->ev.s[k].kind == kind;
+    else
+        for (int64_t k = 0; k < r->ev.n; k++) nk += r->ev.e[k].kind == kind;
+    const size_t n = (size_t)(nk ? nk : 1);
     int64_t *id = malloc(n * sizeof *id);
     int32_t *st = malloc(n * sizeof *st);
     double *t = malloc(n * sizeof *t);
     double *v = malloc(n * GCP_EVENT_NV * sizeof *v);
-    int bad = !id || !st || !t || !v;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
-    if (!bad) {
+    struct ev_sel sel;
+    if (ev_select(w, kind, comm, &sel, !id || !st || !t || !v)) {
+        ev_sel_free(&sel);
+        free(id);
+        free(st);
+        free(t);
+        free(v);
+        w->bad = 1;
+        return;
+    }
+    hid_t g = group(w, parent, name);
+    {
         for (int64_t j = 0; j < sel.n; j++) {
             if (sel.scalar) {
                 const struct gcp_scalar_event *e = &r->ev.s[sel.idx[j]];
@@ -184,8 +208,6 @@ void gcp_output_event_table(struct gcp_ev_writer *w, hid_t parent, const char *n
             write_ev_col(w, g, cols[c].name, H5T_NATIVE_DOUBLE, cols[c].rank, cols[c].d1,
                          cols[c].d2, &sel, v, cols[c].units);
         }
-    } else {
-        w->bad = 1;
     }
     free(id);
     free(st);

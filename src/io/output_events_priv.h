@@ -17,6 +17,9 @@ struct gcp_ev_writer {
     const struct gcp_results *r;
     int64_t total;                /* particles in the file */
     int bad;                      /* a call failed on this rank */
+    int64_t *cnt;                 /* total + 1 counts shared by the tables, allocated
+                                   * on every rank (one agreement for all of them), or
+                                   * NULL: each table allocates and agrees on its own */
 };
 
 /* One table: id, t, then the named value slots (count values from slot). */

@@ -26,6 +26,8 @@ struct writer {
      * particles) made HDF5's selection and collective write quadratic. */
     MPI_Comm comm;
     int spread;              /* rows moved (more than one rank) */
+    int move_all;            /* every column moved (past gcp_writer_spread_runs runs), else
+                              * only the chunked trajectories' */
     int64_t unit;            /* blocks are whole units of rows (trajectory chunk rows), 0: 1 */
     int64_t lo, hi;
     int *scount, *sdispl, *rcount, *rdispl; /* rows to / from each rank */
@@ -35,6 +37,7 @@ struct writer {
     const char *output;      /* for progress lines */
     double t0, last;         /* wall clock: write start, last progress line */
     int ndone;               /* datasets written */
+    int64_t *evcnt;          /* the event tables' shared counts (output_events_priv.h), or NULL */
 };
 
 static inline double wall(void) { return MPI_Wtime(); }

@@ -180,12 +180,17 @@ static void select_rows(hid_t fspace, const struct gcp_results *r, int rank, con
 {
     H5Sselect_none(fspace);
     int64_t k = 0;
+    /* the first run SET, not OR'ed onto none: a single run (one rank's
+     * sorted rows) stays a regular hyperslab, which HDF5 maps onto chunks
+     * block by block instead of element by element */
+    H5S_seloper_t op = H5S_SELECT_SET;
     while (k < r->n) {
         int64_t e = k + 1;
         while (e < r->n && r->id[e] == r->id[e - 1] + 1) e++;
         hsize_t start[3] = {(hsize_t)r->id[k], 0, 0};
         hsize_t count[3] = {(hsize_t)(e - k), rank > 1 ? dims[1] : 1, rank > 2 ? dims[2] : 1};
-        H5Sselect_hyperslab(fspace, H5S_SELECT_OR, start, NULL, count, NULL);
+        H5Sselect_hyperslab(fspace, op, start, NULL, count, NULL);
+        op = H5S_SELECT_OR;
         k = e;
     }
 }
@@ -198,14 +203,15 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     hsize_t dims[3] = {(hsize_t)w->total, d1, d2};
     const hsize_t per_row = (rank > 1 ? d1 : 1) * (rank > 2 ? d2 : 1);
     int64_t nrows = w->r->n;
-    if (w->spread) {
+    const int moved = w->spread && (w->move_all || dcpl != H5P_DEFAULT);
+    if (moved) {
         data = spread_column(w, data, per_row * H5Tget_size(type));
         if (!data) w->bad = 1;
         nrows = w->hi - w->lo;
     }
     hid_t fspace = H5Screate_simple(rank, dims, NULL);
     hid_t dset = H5Dcreate2(loc, name, type, fspace, H5P_DEFAULT, dcpl, H5P_DEFAULT);
-    if (w->spread) {
+    if (moved) {
         hsize_t start[3] = {(hsize_t)w->lo, 0, 0};
         hsize_t count[3] = {(hsize_t)nrows, rank > 1 ? d1 : 1, rank > 2 ? d2 : 1};
         if (nrows) H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, NULL, count, NULL);
@@ -213,10 +219,16 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     } else {
         select_rows(fspace, w->r, rank, dims);
     }
-    hsize_t mdims = (hsize_t)nrows * per_row;
+    /* the rows in memory in the dataset's own shape {nrows, d1, d2}: where
+     * the file selection is one block, HDF5 then sees the two selections of
+     * the same shape and maps a chunked dataset's chunks in whole blocks; a
+     * flat memory space made it walk every element (H5S_select_iterate:
+     * ~1e6 calls for the flagship's trajectory x on one rank) */
+    hsize_t mdims[3] = {(hsize_t)nrows, d1, d2};
     hsize_t one = 1;
-    hid_t mspace = H5Screate_simple(1, mdims ? &mdims : &one, NULL);
-    if (!mdims) H5Sselect_none(mspace);
+    const hsize_t mcount = (hsize_t)nrows * per_row;
+    hid_t mspace = mcount ? H5Screate_simple(rank, mdims, NULL) : H5Screate_simple(1, &one, NULL);
+    if (!mcount) H5Sselect_none(mspace);
     /* every rank calls H5Dwrite (collective), with a dummy buffer if the
      * move failed: w->bad then fails the whole file */
     static const char dummy[64];
@@ -225,7 +237,7 @@ void gcp_writer_rows(struct writer *w, hid_t loc, const char *name, hid_t type, 
     if (!data) {
         H5Sselect_none(fspace);
         H5Sselect_none(mspace);
-        if (nrows == 0 && !w->spread) data = dummy;
+        if (nrows == 0 && !moved) data = dummy;
     }
     /* contiguous datasets: independent writes, each rank's runs of rows
      * with its own pwrites.  A collective write's two-phase exchange cost
