@@ -14,7 +14,7 @@
     gcp_boris_ts_(bx, by, bz, 0.5 * q * dt / m, IG0, &K[0][i], &K[1][i], &K[2][i], &K[3][i])
 #define BORIS_KICK2_ gcp_boris_rotate_ts_(&U, &V, &W, K[0][i], K[1][i], K[2][i], K[3][i])
 GCP_FO_FUSED_DEFINE_SPLIT_(boris, gcp_push_boris, gcp_push_boris_B_ig, 1, BORIS_STASH_,
-                           BORIS_KICK2_)
+                           BORIS_KICK2_, 1)
 
 const struct gcp_pusher_type gcp_pusher_boris = {
     .name = "boris",
