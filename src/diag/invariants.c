@@ -245,7 +245,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
                     &g->acc[3], &g->acc[4], &g->acc[5], &g->prev[0], &g->prev[1], &g->prev[2],
                     &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
                     &g->sum[0], &g->sum[1], &g->sum[2], &g->sum[3], &g->sum[4], &g->sum[5],
-                    &g->sum[6], &g->sum[7], &g->sum[8], &g->w0,
+                    &g->sum[6], &g->sum[7], &g->sum[8], &g->w0, &g->jc,
                     &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev,
                     &o->Gb, &o->Gp2, &o->Gjd,
                     &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,

@@ -277,9 +277,9 @@ struct gcp_fo_fused {
                 /* the phase: u.e2 turns negative first, ends from > 0 to <= 0 */              \
                 const double d0 = U0 * e20[i] + V0 * e21[i] + W0 * e22[i];                      \
                 const double d1 = U * e20[i] + V * e21[i] + W * e22[i];                         \
-                const int64_t lf = left[i] | (d1 < 0);                                          \
-                const int64_t sf = lf & (d0 > 0) & (d1 <= 0);                                   \
-                left[i] = lf;                                                                   \
+                /* left from the steps before: at the start u.e2 = 0 up to rounding */        \
+                const int64_t sf = left[i] & (d0 > 0) & (d1 <= 0);                              \
+                left[i] |= d1 < 0;                                                              \
                 sp[i] = sf;                                                                     \
                 nsp += sf;                                                                      \
             }                                                                                   \
@@ -293,14 +293,28 @@ struct gcp_fo_fused {
                     const double F[3] = {K[0][i], K[1][i], K[2][i]};                            \
                     const double u0[3] = {um[0][i], um[1][i], um[2][i]};                        \
                     const double u1[3] = {ux[i], uy[i], uz[i]};                                 \
-                    const double xh[3] = {x[i] - u1[0] * hg[i], y[i] - u1[1] * hg[i],           \
-                                          z[i] - u1[2] * hg[i]};                                \
-                    /* Boris's t = a B, a = q dt / (2 m gamma), gamma = G[i] (CARRY_) */       \
-                    const double scale =                                                        \
-                        FT_ ? 0.5 * q * dt / (m * (CARRY_ ? G[i] : gcp_gamma_of_u(u1[0], u1[1], u1[2]))) : 1.0; \
+                    const double g1 = hg[i]; /* h / gamma, gamma the same for u- and u+ */      \
+                    const double xh[3] = {x[i] - u1[0] * g1, y[i] - u1[1] * g1,                 \
+                                          z[i] - u1[2] * g1};                                   \
+                    /* Boris's t = a B, a = q dt / (2 m gamma) */                              \
+                    const double ab = 0.5 * q * dt / m * (g1 / h), scale = FT_ ? ab : 1.0;      \
+                    double f[9], fp[9];                                                         \
+                    gcp_fo_gyro_mid_sample(xh, F, u0, u1, f);                                   \
+                    { /* the step before's sample (fo_gyro_priv.h) */                          \
+                        const double xp[3] = {xh[0] - 2.0 * u0[0] * g1, xh[1] - 2.0 * u0[1] * g1, \
+                                              xh[2] - 2.0 * u0[2] * g1};                        \
+                        double Bx_, By_, Bz_;                                                   \
+                        FORM_(xp[0], xp[1], xp[2], Bx_, By_, Bz_);                              \
+                        const double tx_ = ab * Bx_, ty_ = ab * By_, tz_ = ab * Bz_;            \
+                        const double s_ = 2.0 / (1.0 + tx_ * tx_ + ty_ * ty_ + tz_ * tz_);      \
+                        double up[3] = {u0[0], u0[1], u0[2]};                                   \
+                        gcp_boris_rotate_ts_(&up[0], &up[1], &up[2], -tx_, -ty_, -tz_, s_);     \
+                        const double Fp[3] = {scale * Bx_, scale * By_, scale * Bz_};           \
+                        gcp_fo_gyro_mid_sample(xp, Fp, up, u0, fp);                             \
+                    }                                                                           \
                     struct gcp_fo_gyro_rec *rec = gy->rec + gy->nrec;                           \
-                    if (gcp_fo_gyro_close(gy, i0 + i, k0 + s, t0, dt, q, m, F, scale, xh, u0,   \
-                                          u1, rec)) {                                           \
+                    if (gcp_fo_gyro_close(gy, i0 + i, k0 + s, t0, dt, q, m, F, scale, f, fp,    \
+                                          u0, u1, rec)) {                                       \
                         rec->lane = (int64_t)(i0 + i);                                          \
                         gy->nrec++;                                                             \
                     }                                                                           \

@@ -66,6 +66,7 @@ struct gcp_fo_gyro {
      * (gcp_fo_gyro_close), the push step it began at */
     double *sum[9];
     double *w0;           /* the weight of its first step's sample */
+    double *jc;           /* the slope's part of its time sum (gcp_fo_gyro_close) */
     int64_t *kstart;
     double *rho[3];       /* [m] rho = x - X of the previous step */
     double *e1[3], *e2[3];
@@ -185,12 +186,21 @@ static inline int gcp_fo_gyro_lane(struct gcp_fo_gyro *G, size_t li, double t, c
  * (u_c the velocity there; sgn such that u . e2 turns negative first); it
  * ends in the step where u . e2 goes from d0 > 0 to d1 <= 0 after having
  * been negative, at the fraction th = d0 / (d0 - d1) of the step (linear
- * in u).  That step's sample is split: th of it closes this gyration, 1 -
- * th begins the next (midpoint rule on the partial step: an error of
- * th (1 - th) dt^2 f' / 2 at each end, f' = O(eps omega f) for these
- * nearly constant averages -- O(eps (dt / T_g)(omega dt) / 8) relative,
- * ~2e-3 eps at 0.05 gyro; a whole-step window instead leaves O(eps dt /
- * T_g), which the electron mu checks of tests/cli/test_analysis.sh see).
+ * in u).  That step's sample f_k (at its middle) is split between the two
+ * gyrations with the slope from the step before, f' ~ (f_k - f_{k-1}) / dt:
+ *   int_{t_k}^{t_c} f ~ th dt (f_k - (1 - th)(f_k - f_{k-1}) / 2)
+ * to this one, the rest of the step to the next -- O(dt^3 f'') at each
+ * end.  The midpoint value alone would leave th (1 - th) dt^2 f'/2,
+ * O(eps (dt / T_g)(omega dt) / 8) relative to these nearly constant
+ * averages (f' = O(eps omega f)), which the electron mu checks of
+ * tests/cli/test_analysis.sh see (1.4e-6 per bounce against 6e-8 with
+ * the slope).  f_{k-1} is rebuilt where the gyration ends
+ * (fo_fused_priv.h: x_{k-1/2} = x_{k+1/2} - 2 u- h / gamma, the field
+ * there, u of step k-1 from u- by the inverse Boris rotation -- the
+ * pushers' kicks agree with Boris's to O((omega dt)^3), below what the
+ * slope needs).  The phase is u's, not rho's: u . e2 also sees u_par b . e2
+ * as b turns along the orbit, which moves the ends by O(eps) in phase --
+ * harmless to averages that are constant up to O(eps) swings (O(eps^2)).
  * t is the weighted mean of the samples' times.  The per-step pass
  * (gcp_fo_gyro_lane, above) remains where there is no fused step (other
  * fields, lanes renumbered by a loss); a lane that changes from one to
@@ -202,6 +212,7 @@ static inline void gcp_fo_gyro_mid_start(struct gcp_fo_gyro *G, size_t li, int64
     G->left[li] = 0;
     G->kstart[li] = k;
     G->w0[li] = w0;
+    G->jc[li] = 0.0;
     for (int j = 0; j < 9; j++) G->sum[j][li] = 0.0;
     for (int j = 0; j < 3; j++) G->e2[j][li] = e2[j];
 }
@@ -232,22 +243,24 @@ static inline void gcp_fo_gyro_mid_sample(const double xh[3], const double F[3],
 }
 
 /* The gyration of lane li that ended in push step k (its sums hold that
- * step's sample whole): *r from the sums (above) less 1 - th of that
- * sample, then the next one begun with 1 - th of it, at the crossing.  F =
- * a B, x_1/2, u- = u0 and u+ = u1 of the step.  Returns 1 where *r was
+ * step's sample f whole; fp: the step before's): *r from the sums (above)
+ * less the part of step k past the crossing, which begins the next one
+ * there.  F = a B, u0 = u- and u1 = u+ of step k.  Returns 1 where *r was
  * filled (but r->lane). */
-static inline __attribute__((always_inline)) int gcp_fo_gyro_close(struct gcp_fo_gyro *G, size_t li, int64_t k, double t0,
-                                    double dt, double q, double m, const double F[3], double a,
-                                    const double xh[3], const double u0[3], const double u1[3],
-                                    struct gcp_fo_gyro_rec *r)
+static inline __attribute__((always_inline)) int
+gcp_fo_gyro_close(struct gcp_fo_gyro *G, size_t li, int64_t k, double t0, double dt, double q,
+                  double m, const double F[3], double a, const double f[9], const double fp[9],
+                  const double u0[3], const double u1[3], struct gcp_fo_gyro_rec *r)
 {
     const double e2[3] = {G->e2[0][li], G->e2[1][li], G->e2[2][li]};
     const double d0 = gcp_fo_gyro_dot3(u0, e2), d1 = gcp_fo_gyro_dot3(u1, e2);
     const double th = d0 / (d0 - d1), rest = 1.0 - th; /* d0 > 0 >= d1 */
-    double f[9], S[9];
-    gcp_fo_gyro_mid_sample(xh, F, u0, u1, f);
-    for (int j = 0; j < 9; j++) S[j] = G->sum[j][li] - rest * f[j];
-    /* weights: w0 for the first step, rest off the last, 1 between */
+    const double cs = 0.5 * th * rest; /* the slope's weight */
+    double S[9], fn[9];
+    for (int j = 0; j < 9; j++) {
+        fn[j] = rest * f[j] + cs * (f[j] - fp[j]); /* the part past the crossing */
+        S[j] = G->sum[j][li] - fn[j];
+    }
     const int64_t ks = G->kstart[li];
     const double w0 = G->w0[li];
     const double N = (double)(k - ks + 1) - (1.0 - w0) - rest;
@@ -256,7 +269,7 @@ static inline __attribute__((always_inline)) int gcp_fo_gyro_close(struct gcp_fo
     if (N > 1 && S[8] > 0) {
         /* the samples' times t0 + (j + 1/2) dt, weighted */
         const double jbar = (0.5 * (double)(ks + k) * (double)(k - ks + 1) -
-                             (1.0 - w0) * (double)ks - rest * (double)k) / N;
+                             (1.0 - w0) * (double)ks - rest * (double)k - cs + G->jc[li]) / N;
         r->t = t0 + (jbar + 0.5) * dt;
         /* S_r, S_p, S_p2 are of us = 2 u_1/2 */
         const double rf = 0.5 * m * a / (q * S[8]);
@@ -272,7 +285,8 @@ static inline __attribute__((always_inline)) int gcp_fo_gyro_close(struct gcp_fo
     for (int j = 0; j < 3; j++) uc[j] = u0[j] + th * (u1[j] - u0[j]);
     gcp_fo_gyro_mid_e2(q, a, F, uc, e2n);
     gcp_fo_gyro_mid_start(G, li, k, rest, e2n);
-    for (int j = 0; j < 9; j++) G->sum[j][li] = rest * f[j];
+    for (int j = 0; j < 9; j++) G->sum[j][li] = fn[j];
+    G->jc[li] = cs; /* the slope's share of the first step's time */
     return out;
 }
 

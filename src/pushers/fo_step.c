@@ -207,11 +207,11 @@ static void fo_state_arrays(struct gcp_block *b, double *a[6])
  * (one step per call, streaming) never touches b->hg. */
 /* The gyro state arrays of lanes [0, n) that the fused step changes
  * (fo_steps_gyro's save; GCP_FO_GYRO_MID, fo_gyro_priv.h). */
-#define FO_GYRO_NSAVE 15
+#define FO_GYRO_NSAVE 16
 static void fo_gyro_arrays(struct gcp_fo_gyro *g, void *a[FO_GYRO_NSAVE])
 {
     int k = 0;
-    a[k++] = g->left, a[k++] = g->kstart, a[k++] = g->w0;
+    a[k++] = g->left, a[k++] = g->kstart, a[k++] = g->w0, a[k++] = g->jc;
     for (int j = 0; j < 3; j++) a[k++] = g->e2[j];
     for (int j = 0; j < 9; j++) a[k++] = g->sum[j];
 }
