@@ -244,13 +244,15 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
                     &g->e2[0], &g->e2[1], &g->e2[2], &g->acc[0], &g->acc[1], &g->acc[2],
                     &g->acc[3], &g->acc[4], &g->acc[5], &g->prev[0], &g->prev[1], &g->prev[2],
                     &g->prev[3], &g->prev[4], &g->prev[5], &g->t0, &g->tprev,
+                    &g->sum[0], &g->sum[1], &g->sum[2], &g->sum[3], &g->sum[4], &g->sum[5],
+                    &g->sum[6], &g->sum[7], &g->sum[8], &g->w0, &g->jc,
                     &o->xprev[0], &o->xprev[1], &o->xprev[2], &o->tprev,
                     &o->Gb, &o->Gp2, &o->Gjd,
                     &o->hot.J, &o->hot.mub, &o->hot.Bmin, &o->hot.tnext,
                     &o->hot.cx, &o->hot.cy};
     const size_t nv = sizeof v / sizeof v[0], nr = 3 * GCP_OBS_RING_NV;
     o->gmem = calloc((nv + nr) * n, sizeof(double));
-    o->gflags = calloc(9 * n, sizeof(int64_t));
+    o->gflags = calloc(10 * n, sizeof(int64_t));
     int fail = !o->gmem || !o->gflags;
     if (!fail) {
         for (size_t k = 0; k < nv; k++) *v[k] = o->gmem + k * n;
@@ -261,6 +263,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
         o->hot.have = o->gflags + 4 * n, o->hot.next = o->gflags + 5 * n;
         o->hot.hprev = o->gflags + 6 * n, o->hot.az = o->gflags + 7 * n;
         o->hot.slow = o->gflags + 8 * n;
+        g->kstart = o->gflags + 9 * n;
     }
     if (fail || !o->lane || !o->Bx || !o->By || !o->Bz || !o->fst) {
         gcp_observer_free(o);
@@ -295,6 +298,7 @@ void gcp_observer_free(struct gcp_observer *o)
     free(o->gmem);
     free(o->gflags);
     free(o->g.rec);
+    free(o->rmem);
     free(o);
 }
 
@@ -759,10 +763,7 @@ void gcp_observer_sample(const struct gcp_block *b, double t, void *ctx)
     /* the steps a fused full-orbit step did the gyro-average work of
      * (gcp_observer_fo_gyro): their completed gyrations into the streams */
     const int fo_done = o->g.steps > 0;
-    for (int64_t k = 0; fo_done && k < o->g.nrec; k++) {
-        const struct gcp_fo_gyro_rec *r = &o->g.rec[k];
-        gcp_obs_fo_record(o, &o->lane[r->lane], o->id0 + r->lane, r);
-    }
+    if (fo_done) gcp_obs_fo_records(o);
     o->g.steps = o->g.nrec = 0;
     if (!o->hybrid) observe_live(o, b, t, o->gc, 0, fo_done);
 }

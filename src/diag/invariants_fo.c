@@ -2,6 +2,7 @@
  * gyro-average that turns a full orbit into a guiding-centre stream, and the
  * dipole loss-cone classification of a start. */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "gcpush/error.h"
@@ -21,8 +22,8 @@ static void fo_step_lane(struct gcp_observer *o, struct lane *L, size_t li, int6
                          const double v[6], const double rho[3], const double B[3])
 {
     struct gcp_fo_gyro *G = &o->g;
-    if (!G->init[li]) {
-        G->init[li] = 1;
+    if (G->init[li] != GCP_FO_GYRO_STEP) { /* none, or the fused step's (dropped) */
+        G->init[li] = GCP_FO_GYRO_STEP;
         G->left[li] = 0;
         for (int k = 0; k < 3; k++) G->rho[k][li] = rho[k];
         for (int k = 0; k < 6; k++) G->prev[k][li] = v[k], G->acc[k][li] = 0.0;
@@ -34,19 +35,59 @@ static void fo_step_lane(struct gcp_observer *o, struct lane *L, size_t li, int6
         for (int k = 0; k < 3; k++) G->e2[k][li] = e2[k];
         return;
     }
-    struct gcp_fo_gyro_rec r;
+    struct gcp_fo_gyro_rec r = {0};
     if (gcp_fo_gyro_lane(G, li, t, v, rho, B, &r)) gcp_obs_fo_record(o, L, id, &r);
+}
+
+/* A record into lane L's stream with |B| at its X given. */
+static void fo_record_B(struct gcp_observer *o, struct lane *L, int64_t id,
+                        const struct gcp_fo_gyro_rec *r, double B)
+{
+    struct gsample s = {.t = r->t, .X = {r->X[0], r->X[1], r->X[2]}, .ppar = r->ppar,
+                        .mu = r->mu, .p2 = r->p2, .B = B};
+    /* the fused step's record carries p_perp^2 (fo_gyro_priv.h) */
+    if (r->mid) s.mu = r->mu / (2.0 * o->m * s.B);
+    gcp_obs_stream_sample(o, L, id, &s);
 }
 
 void gcp_obs_fo_record(struct gcp_observer *o, struct lane *L, int64_t id,
                        const struct gcp_fo_gyro_rec *r)
 {
-    struct gsample s = {.t = r->t, .X = {r->X[0], r->X[1], r->X[2]}, .ppar = r->ppar,
-                        .mu = r->mu, .p2 = r->p2};
     struct gcp_field_sample fs = {.need = GCP_NEED_B};
-    gcp_field_eval(o->f, s.t, s.X, &fs);
-    s.B = sqrt(gcp_obs_dot3(fs.B, fs.B));
-    gcp_obs_stream_sample(o, L, id, &s);
+    gcp_field_eval(o->f, r->t, r->X, &fs);
+    fo_record_B(o, L, id, r, sqrt(gcp_obs_dot3(fs.B, fs.B)));
+}
+
+/* The fused step's records of a call (o->g.rec, in order): |B| at their X
+ * in one block evaluation per time (a static field: one for all), then
+ * each into its lane's stream. */
+void gcp_obs_fo_records(struct gcp_observer *o)
+{
+    const struct gcp_fo_gyro *G = &o->g;
+    const int64_t n = G->nrec;
+    int vec = n > 0 && o->f->type->eval_block && !(gcp_field_caps(o->f) & GCP_CAP_TIME);
+    if (vec && o->rcap < n) {
+        double *m = realloc(o->rmem, (size_t)n * 7 * sizeof(double));
+        if (m) o->rmem = m, o->rcap = n;
+        vec = m != NULL;
+    }
+    if (!vec) {
+        for (int64_t k = 0; k < n; k++)
+            gcp_obs_fo_record(o, &o->lane[G->rec[k].lane], o->id0 + G->rec[k].lane, &G->rec[k]);
+        return;
+    }
+    const size_t c = (size_t)o->rcap;
+    double *X = o->rmem, *Y = X + c, *Z = Y + c, *Bx = Z + c, *By = Bx + c, *Bz = By + c;
+    int32_t *st = (int32_t *)(Bz + c);
+    for (int64_t k = 0; k < n; k++)
+        X[k] = G->rec[k].X[0], Y[k] = G->rec[k].X[1], Z[k] = G->rec[k].X[2], st[k] = 0;
+    o->f->type->eval_block(o->f, G->rec[0].t, (size_t)n, X, Y, Z, Bx, By, Bz, NULL, NULL, NULL,
+                           st);
+    for (int64_t k = 0; k < n; k++) {
+        const struct gcp_fo_gyro_rec *r = &G->rec[k];
+        const double B = sqrt(Bx[k] * Bx[k] + By[k] * By[k] + Bz[k] * Bz[k]);
+        fo_record_B(o, &o->lane[r->lane], o->id0 + r->lane, r, B);
+    }
 }
 
 /* The step of every live lane whose gyration neither starts nor ends in it
@@ -86,7 +127,7 @@ fo_pass(struct gcp_observer *o, const struct gcp_block *b, size_t n, double t,
         const double wx = r0[li] + th * (rx - r0[li]), wy = r1[li] + th * (ry - r1[li]),
                      wz = r2[li] + th * (rz - r2[li]);
         const int64_t wrap = wx * e10[li] + wy * e11[li] + wz * e12[li] > 0;
-        const int64_t s = (init[li] == 0) | (lf & cross & wrap);
+        const int64_t s = (init[li] != GCP_FO_GYRO_STEP) | (lf & cross & wrap);
         sp[i] = s;
         const double dt = t - tprev[li];
 #define GYRO_ACC(A, P, V)                                                                    \

@@ -153,6 +153,10 @@ struct gcp_observer {
     int64_t ev_begin;     /* out->n at gcp_observer_begin */
     struct gcp_events *out;
     int nomem;
+    /* scratch of gcp_obs_fo_records: X[3], B[3] and the field's verdict of
+     * rcap records */
+    double *rmem;
+    int64_t rcap;
 };
 
 /* Before a loop over a block's lanes whose arrays do not overlap (and
@@ -199,6 +203,8 @@ void gcp_obs_fo_block(struct gcp_observer *o, const struct gcp_block *b, double 
  * gcp_obs_stream_sample (invariants_fo.c). */
 void gcp_obs_fo_record(struct gcp_observer *o, struct lane *L, int64_t id,
                        const struct gcp_fo_gyro_rec *r);
+/* The fused step's records of its last call, o->g.rec, in order. */
+void gcp_obs_fo_records(struct gcp_observer *o);
 /* Contour quantities of a position (R, psi = R A_phi, A_R, A_z). */
 void gcp_obs_contour_of(const struct gcp_observer *o, double t, const double X[3], double *R,
                         double *psi, double *AR, double *Az);

@@ -231,63 +231,36 @@ struct gcp_fo_fused {
  * bz and IG0 for its kick. */
 #define GCP_FO_STASH_B_ (K[0][i] = bx, K[1][i] = by, K[2][i] = bz, K[3][i] = IG0)
 
-/* The observer's per-step work of one lane after its step (x, u the
- * lane's new state): the first-order guiding centre of
- * src/diag/invariants_fo.c gcp_obs_fo_block, in its operations and order
- * (B at x, rho = B x u m / (q B^2), X = x - rho, B at X, p_par = p.B(X) /
- * |B(X)|, mu = max(p^2 - p_par^2, 0) / (2 m |B(X)|), p^2).  Defines
- * GX, GY, GZ, B1x, B1y, B1z, PP, MU, P2. */
-#define GCP_FO_GYRO_GC_(FORM_, XX, YY, ZZ, U_, V_, W_)                                            \
-    double B1x, B1y, B1z;                                                                       \
-    FORM_(XX, YY, ZZ, B1x, B1y, B1z);                                                           \
-    const double B2_ = B1x * B1x + B1y * B1y + B1z * B1z;                                        \
-    const double sg_ = m * qi / B2_;                                                            \
-    const double GX = XX - sg_ * (B1y * W_ - B1z * V_);                                         \
-    const double GY = YY - sg_ * (B1z * U_ - B1x * W_);                                         \
-    const double GZ = ZZ - sg_ * (B1x * V_ - B1y * U_);                                         \
-    double Cx_, Cy_, Cz_;                                                                       \
-    FORM_(GX, GY, GZ, Cx_, Cy_, Cz_);                                                           \
-    const double px_ = m * U_, py_ = m * V_, pz_ = m * W_;                                      \
-    const double BX_ = sqrt(Cx_ * Cx_ + Cy_ * Cy_ + Cz_ * Cz_);                                 \
-    const double PP = (px_ * Cx_ + py_ * Cy_ + pz_ * Cz_) / BX_;                                \
-    const double P2 = px_ * px_ + py_ * py_ + pz_ * pz_;                                        \
-    const double d_ = P2 - PP * PP;                                                             \
-    const double MU = (d_ > 0.0 ? d_ : 0.0) / (2.0 * m * BX_);
-
-/* One gyro tile function (gcp_fo_gyro_tile_fn): the tile loop of
- * GCP_FO_TILE_DEFINE_ with, per lane and step, GCP_FO_GYRO_GC_ and the
- * observer's vectorised pass (invariants_fo.c fo_pass: phase test, the six
- * trapezoid sums) in registers; the lanes whose gyration ends in the step
- * (flagged in sp, ~1 in 20) then go through gcp_fo_gyro_lane one by one,
- * with the step's v, rho and B kept in sv (12 stores a lane, cheaper than
- * recomputing the two field evaluations of a rare lane). */
-#define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, KICK_, CARRY_)                                   \
+/* One gyro tile function (gcp_fo_gyro_tile_fn): the split tile loop of
+ * GCP_FO_TILE_DEFINE_ (STASH_, KICK_ as there: K[0..2] is the field vector
+ * F of the step, B or, with FT_ = 1, Boris's t = (q dt / 2 m gamma) B) with
+ * the observer's per-step work in its second loop: a sample of the step at
+ * its middle, where the push has everything it needs (fo_gyro_priv.h: the
+ * point x_1/2, F there, u- and u+), added to the lane's nine raw sums, and
+ * the phase test -- no field evaluation, no square root, no division.  The
+ * lanes whose gyration ends in the step (flagged in sp, ~1 in 20) then
+ * close it one by one (gcp_fo_gyro_close: the record, from the sums). */
+#define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_)                      \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
                          double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
                          const struct gcp_fo_tile_args *a, int32_t *stopped,                    \
                          struct gcp_fo_gyro *gy, size_t i0, double t0, int64_t k0)              \
     {                                                                                           \
-        const double q = a->q, m = a->m, dt = a->dt, h = a->h, qi = 1.0 / q;                    \
+        const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
-        double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                                 \
-        int64_t sp[GCP_FO_TILE];                                                                \
-        double sv[12][GCP_FO_TILE]; /* v[6], rho[3], B[3] of the step, for the rare lanes */    \
+        _Alignas(64) double G[GCP_FO_TILE], hg[GCP_FO_TILE], K[4][GCP_FO_TILE];                \
+        _Alignas(64) int64_t sp[GCP_FO_TILE];                                                   \
+        _Alignas(64) double um[3][GCP_FO_TILE]; /* u- of the step, for the rare lanes */       \
         (void)G;                                                                                \
         int64_t *restrict left = gy->left + i0;                                                 \
-        double *restrict r0 = gy->rho[0] + i0, *restrict r1 = gy->rho[1] + i0,                  \
-                         *restrict r2 = gy->rho[2] + i0;                                        \
-        const double *restrict e10 = gy->e1[0] + i0, *restrict e11 = gy->e1[1] + i0,            \
-                               *restrict e12 = gy->e1[2] + i0;                                  \
         const double *restrict e20 = gy->e2[0] + i0, *restrict e21 = gy->e2[1] + i0,            \
                                *restrict e22 = gy->e2[2] + i0;                                  \
-        double *restrict tpv = gy->tprev + i0;                                                  \
-        double *restrict a0 = gy->acc[0] + i0, *restrict a1 = gy->acc[1] + i0,                  \
-                         *restrict a2 = gy->acc[2] + i0, *restrict a3 = gy->acc[3] + i0,        \
-                         *restrict a4 = gy->acc[4] + i0, *restrict a5 = gy->acc[5] + i0;        \
-        double *restrict p0 = gy->prev[0] + i0, *restrict p1 = gy->prev[1] + i0,                \
-                         *restrict p2 = gy->prev[2] + i0, *restrict p3 = gy->prev[3] + i0,      \
-                         *restrict p4 = gy->prev[4] + i0, *restrict p5 = gy->prev[5] + i0;      \
+        double *restrict s0 = gy->sum[0] + i0, *restrict s1 = gy->sum[1] + i0,                  \
+                         *restrict s2 = gy->sum[2] + i0, *restrict s3 = gy->sum[3] + i0,        \
+                         *restrict s4 = gy->sum[4] + i0, *restrict s5 = gy->sum[5] + i0,        \
+                         *restrict s6 = gy->sum[6] + i0, *restrict s7 = gy->sum[7] + i0,        \
+                         *restrict s8 = gy->sum[8] + i0;                                        \
         if (hg_mode & GCP_FO_HG_IN) {                                                           \
             for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
             if (CARRY_)                                                                         \
@@ -301,75 +274,77 @@ struct gcp_fo_fused {
         }                                                                                       \
         int64_t s = 0;                                                                          \
         for (; s < kmax; s++) {                                                                 \
-            const double tt = (t0 + (double)(k0 + s) * dt) + dt;                                \
             int32_t any = 0;                                                                    \
             int64_t nsp = 0;                                                                    \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                GCP_FO_LANE1_(FORM_, CARRY_)                                                    \
+                x[i] = X_, y[i] = Y_, z[i] = Z_;                                                \
+                STASH_;                                                                         \
+            }                                                                                   \
             GCP_FO_IVDEP_                                                                       \
             for (size_t i = 0; i < nt; i++) {                                                   \
-                double U = ux[i], V = uy[i], W = uz[i];                                         \
-                const double g0 = hg[i];                                                        \
-                const double IG0 = CARRY_ ? 1.0 / G[i] : 1.0;                                   \
-                (void)IG0;                                                                      \
-                const double X = x[i] + U * g0, Y = y[i] + V * g0, Z = z[i] + W * g0;           \
-                double bx, by, bz;                                                              \
-                FORM_(X, Y, Z, bx, by, bz);                                                     \
-                KICK_;                                                                          \
-                const double G1 = gcp_gamma_of_u(U, V, W);                                      \
-                if (CARRY_) G[i] = G1;                                                          \
-                const double g1 = h / G1;                                                       \
-                const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                 \
-                x[i] = X1, y[i] = Y1, z[i] = Z1;                                                \
-                ux[i] = U, uy[i] = V, uz[i] = W;                                                \
-                hg[i] = g1;                                                                     \
-                const double rr2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                 \
-                const double u2 = U * U + V * V + W * W;                                        \
-                any |= gcp_lane_stops(rr2, u2, Z1, rin2, rout2, zmax);                         \
-                GCP_FO_GYRO_GC_(FORM_, X1, Y1, Z1, U, V, W)                                     \
-                const double rx = X1 - GX, ry = Y1 - GY, rz = Z1 - GZ;                          \
-                sv[0][i] = GX, sv[1][i] = GY, sv[2][i] = GZ;                                    \
-                sv[3][i] = PP, sv[4][i] = MU, sv[5][i] = P2;                                    \
-                sv[6][i] = rx, sv[7][i] = ry, sv[8][i] = rz;                                    \
-                sv[9][i] = B1x, sv[10][i] = B1y, sv[11][i] = B1z;                               \
-                const double ca = r0[i] * e20[i] + r1[i] * e21[i] + r2[i] * e22[i];             \
-                const double cc = rx * e20[i] + ry * e21[i] + rz * e22[i];                      \
-                const double re1 = rx * e10[i] + ry * e11[i] + rz * e12[i];                     \
-                const double pe1 = r0[i] * e10[i] + r1[i] * e11[i] + r2[i] * e12[i];            \
-                const int64_t lf = left[i] | (re1 < 0);                                         \
-                const int64_t cross = ((ca < 0) & (cc >= 0)) | ((ca > 0) & (cc <= 0));          \
-                /* gcp_fo_gyro_lane's wrap test (rho at the crossing, th = ca/(ca - cc), on     \
-                 * e1's side) times (ca - cc), which has ca's sign where they cross: no        \
-                 * division; with a margin far above the rounding of either form, so that it \
-                 * flags every lane that test would wrap (and a few more, which that test     \
-                 * then steps as this pass would: the same numbers) */                        \
-                const double D = ca * re1 - cc * pe1;                                           \
-                const double Dm = 1e-9 * (fabs(ca * re1) + fabs(cc * pe1));                     \
-                const int64_t wrap = (ca > 0 ? D : -D) > -Dm;                                   \
-                const int64_t sf = lf & cross & wrap;                                           \
+                const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];           \
+                (void)bx, (void)by, (void)bz, (void)IG0;                                        \
+                const double Xh = x[i], Yh = y[i], Zh = z[i];                                   \
+                const double U0 = ux[i], V0 = uy[i], W0 = uz[i];                                \
+                um[0][i] = U0, um[1][i] = V0, um[2][i] = W0;                                    \
+                GCP_FO_LANE2_(KICK_, CARRY_, Xh, Yh, Zh, 1)                                     \
+                /* the sample (fo_gyro_priv.h): us = u- + u+ = 2 u_1/2 */                      \
+                const double usx = U0 + U, usy = V0 + V, usz = W0 + W;                          \
+                const double fu = bx * usx + by * usy + bz * usz;                               \
+                s0[i] += Xh;                                                                    \
+                s1[i] += Yh;                                                                    \
+                s2[i] += Zh;                                                                    \
+                s3[i] += by * usz - bz * usy;                                                   \
+                s4[i] += bz * usx - bx * usz;                                                   \
+                s5[i] += bx * usy - by * usx;                                                   \
+                s6[i] += fu;                                                                    \
+                s7[i] += fu * fu;                                                               \
+                s8[i] += bx * bx + by * by + bz * bz;                                           \
+                /* the phase: u.e2 turns negative first, ends from > 0 to <= 0 */              \
+                const double d0 = U0 * e20[i] + V0 * e21[i] + W0 * e22[i];                      \
+                const double d1 = U * e20[i] + V * e21[i] + W * e22[i];                         \
+                /* left from the steps before: at the start u.e2 = 0 up to rounding */        \
+                const int64_t sf = left[i] & (d0 > 0) & (d1 <= 0);                              \
+                left[i] |= d1 < 0;                                                              \
                 sp[i] = sf;                                                                     \
                 nsp += sf;                                                                      \
-                const double gdt = tt - tpv[i];                                                 \
-                GCP_FO_GYRO_ACC_(a0, p0, GX);                                                   \
-                GCP_FO_GYRO_ACC_(a1, p1, GY);                                                   \
-                GCP_FO_GYRO_ACC_(a2, p2, GZ);                                                   \
-                GCP_FO_GYRO_ACC_(a3, p3, PP);                                                   \
-                GCP_FO_GYRO_ACC_(a4, p4, MU);                                                   \
-                GCP_FO_GYRO_ACC_(a5, p5, P2);                                                   \
-                r0[i] = sf ? r0[i] : rx;                                                        \
-                r1[i] = sf ? r1[i] : ry;                                                        \
-                r2[i] = sf ? r2[i] : rz;                                                        \
-                left[i] = sf ? left[i] : lf;                                                    \
-                tpv[i] = sf ? tpv[i] : tt;                                                      \
             }                                                                                   \
-            for (size_t i = 0; nsp > 0 && i < nt; i++) {                                        \
-                if (!sp[i]) continue;                                                           \
-                nsp--;                                                                          \
-                const double v[6] = {sv[0][i], sv[1][i], sv[2][i], sv[3][i], sv[4][i], sv[5][i]}; \
-                const double rho[3] = {sv[6][i], sv[7][i], sv[8][i]};                           \
-                const double B[3] = {sv[9][i], sv[10][i], sv[11][i]};                           \
-                struct gcp_fo_gyro_rec *rec = gy->rec + gy->nrec;                               \
-                if (gcp_fo_gyro_lane(gy, i0 + i, tt, v, rho, B, rec)) {                         \
-                    rec->lane = (int64_t)(i0 + i);                                              \
-                    gy->nrec++;                                                                 \
+            /* the rare lanes, found 8 at a time (one vector test a group) */                  \
+            for (size_t j = 0; nsp > 0 && j < nt; j += 8) {                                     \
+                int64_t g8 = 0;                                                                 \
+                for (size_t i = j; i < j + 8 && i < nt; i++) g8 |= sp[i];                       \
+                for (size_t i = j; g8 && i < j + 8 && i < nt; i++) {                            \
+                    if (!sp[i]) continue;                                                       \
+                    nsp--;                                                                      \
+                    const double F[3] = {K[0][i], K[1][i], K[2][i]};                            \
+                    const double u0[3] = {um[0][i], um[1][i], um[2][i]};                        \
+                    const double u1[3] = {ux[i], uy[i], uz[i]};                                 \
+                    const double g1 = hg[i]; /* h / gamma, gamma the same for u- and u+ */      \
+                    const double xh[3] = {x[i] - u1[0] * g1, y[i] - u1[1] * g1,                 \
+                                          z[i] - u1[2] * g1};                                   \
+                    /* Boris's t = a B, a = q dt / (2 m gamma) */                              \
+                    const double ab = 0.5 * q * dt / m * (g1 / h), scale = FT_ ? ab : 1.0;      \
+                    double f[9], fp[9];                                                         \
+                    gcp_fo_gyro_mid_sample(xh, F, u0, u1, f);                                   \
+                    { /* the step before's sample (fo_gyro_priv.h) */                          \
+                        const double xp[3] = {xh[0] - 2.0 * u0[0] * g1, xh[1] - 2.0 * u0[1] * g1, \
+                                              xh[2] - 2.0 * u0[2] * g1};                        \
+                        double Bx_, By_, Bz_;                                                   \
+                        FORM_(xp[0], xp[1], xp[2], Bx_, By_, Bz_);                              \
+                        const double tx_ = ab * Bx_, ty_ = ab * By_, tz_ = ab * Bz_;            \
+                        const double s_ = 2.0 / (1.0 + tx_ * tx_ + ty_ * ty_ + tz_ * tz_);      \
+                        double up[3] = {u0[0], u0[1], u0[2]};                                   \
+                        gcp_boris_rotate_ts_(&up[0], &up[1], &up[2], -tx_, -ty_, -tz_, s_);     \
+                        const double Fp[3] = {scale * Bx_, scale * By_, scale * Bz_};           \
+                        gcp_fo_gyro_mid_sample(xp, Fp, up, u0, fp);                             \
+                    }                                                                           \
+                    struct gcp_fo_gyro_rec *rec = gy->rec + gy->nrec;                           \
+                    if (gcp_fo_gyro_close(gy, i0 + i, k0 + s, t0, dt, q, m, F, scale, f, fp,    \
+                                          u0, u1, rec)) {                                       \
+                        rec->lane = (int64_t)(i0 + i);                                          \
+                        gy->nrec++;                                                             \
+                    }                                                                           \
                 }                                                                               \
             }                                                                                   \
             if (any) {                                                                          \
@@ -382,12 +357,6 @@ struct gcp_fo_fused {
             for (size_t i = 0; i < nt; i++) hg_io[i] = hg[i];                                   \
         return s;                                                                               \
     }
-#define GCP_FO_GYRO_ACC_(A, P, V)                                                               \
-    do {                                                                                        \
-        const double acc_k = A[i] + 0.5 * (P[i] + V) * gdt;                                     \
-        A[i] = sf ? A[i] : acc_k;                                                               \
-        P[i] = sf ? P[i] : V;                                                                   \
-    } while (0)
 
 /* The fused kernel set of a full-orbit pusher NAME from its scalar kicks
  * (kernels.h): KICK(ux, uy, uz, Ex, Ey, Ez, Bx, By, Bz, q, m, dt) and
@@ -402,21 +371,22 @@ struct gcp_fo_fused {
  * tiles are split too, the B tile with the same stash and kick, the E and B
  * tile with STASH_EB_ and KICK2_EB_, and skip the stop test where it is
  * proved false (FREE_ above: Boris's bounds; USPLIT_ = 0: one loop a step
- * with the test, the plain kicks; STASH_EB_ and KICK2_EB_ unused). */
+ * with the test, the plain kicks; STASH_EB_ and KICK2_EB_ unused).  FT = 1:
+ * the B tiles' field vector is Boris's t, not B (the gyro tile's sums). */
 #define GCP_FO_IG_0_
 #define GCP_FO_IG_1_ , IG0
 #define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_, USPLIT_,      \
-                                   STASH_EB_, KICK2_EB_)                                        \
+                                   STASH_EB_, KICK2_EB_, FT)                                    \
     GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, 1, \
                         0, 0.0, 0.0)                                                            \
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY,    \
                         USPLIT_, USPLIT_, 0.0, GCP_FO_ABS3_(a->p))                              \
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, STASH_EB_, KICK2_EB_, 0,     \
                         USPLIT_, USPLIT_, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p))           \
-    GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_,                            \
-                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
-    GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_,                          \
-                        KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_), CARRY)   \
+    GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, \
+                             FT)                                                                \
+    GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY, \
+                             FT)                                                                \
     static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
         .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}},                          \
@@ -427,7 +397,7 @@ struct gcp_fo_fused {
                                KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_),   \
                                0, GCP_FO_STASH_B_,                                              \
                                KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m,    \
-                                    dt))
+                                    dt), 0)
 
 /* ---- Newtonian pushers (u = v: boris-nr) --------------------------------
  *

@@ -100,7 +100,7 @@ struct fo_ctx {
      * GCP_FO_GYRO_STEPS a call (fo_steps_gyro) */
     struct gcp_fo_gyro *gy;
     gcp_fo_gyro_tile_fn gyro_tile;
-    double *gsave;                 /* [27 b->n] x, u and the gyro state at the call's start */
+    double *gsave;                 /* [(6 + FO_GYRO_NSAVE) b->n] x, u and the gyro state at the call's start */
 };
 
 /* Steps a call of the fused step with the observer's work (fo_steps_gyro)
@@ -205,23 +205,48 @@ static void fo_state_arrays(struct gcp_block *b, double *a[6])
  * leave their drift factors in b->hg for the next call to read instead of
  * recomputing (a square root and a division a lane); a push of one call
  * (one step per call, streaming) never touches b->hg. */
-/* The gyro state arrays of lanes [0, n) (fo_steps_gyro's save). */
-static void fo_gyro_arrays(struct gcp_fo_gyro *g, void *a[21])
+/* The gyro state arrays of lanes [0, n) that the fused step changes
+ * (fo_steps_gyro's save; GCP_FO_GYRO_MID, fo_gyro_priv.h). */
+#define FO_GYRO_NSAVE 16
+static void fo_gyro_arrays(struct gcp_fo_gyro *g, void *a[FO_GYRO_NSAVE])
 {
     int k = 0;
-    a[k++] = g->left, a[k++] = g->t0, a[k++] = g->tprev;
-    for (int j = 0; j < 3; j++) a[k++] = g->rho[j], a[k++] = g->e2[j];
-    for (int j = 0; j < 6; j++) a[k++] = g->acc[j], a[k++] = g->prev[j];
+    a[k++] = g->left, a[k++] = g->kstart, a[k++] = g->w0, a[k++] = g->jc;
+    for (int j = 0; j < 3; j++) a[k++] = g->e2[j];
+    for (int j = 0; j < 9; j++) a[k++] = g->sum[j];
 }
 
 /* Whether fo_steps_gyro can take the block: dense (the gyro state is by
- * lane index, the tile's by position) and every gyration begun. */
+ * lane index, the tile's by position). */
 static int fo_gyro_ready(const struct fo_ctx *c, const struct gcp_block *b, size_t n)
 {
     const struct gcp_fo_gyro *g = c->gy;
     int ok = c->gyro_tile && n <= g->nlanes;
-    for (size_t i = 0; ok && i < n; i++) ok = b->index[i] == i && g->init[i];
+    for (size_t i = 0; ok && i < n; i++) ok = b->index[i] == i;
     return ok;
+}
+
+/* Lanes whose gyration in progress is not the fused step's (none yet, or
+ * one of the observer's per-step pass, after a step without the fused
+ * work) begin one at push step k0, time t: the phase reference from B at
+ * the particle (fo_gyro_priv.h gcp_fo_gyro_mid_e2, F = B). */
+static void fo_gyro_begin(const struct gcp_evolve *ev, struct gcp_fo_gyro *g, struct gcp_block *b,
+                          size_t n, int64_t k0, double t)
+{
+    int64_t need = 0;
+    for (size_t i = 0; i < n; i++) need |= g->init[i] != GCP_FO_GYRO_MID;
+    if (!need) return;
+    memset(b->fstatus, 0, n * sizeof(int32_t));
+    ev->f->type->eval_block(ev->f, t, n, b->x, b->y, b->z, b->Bx, b->By, b->Bz, NULL, NULL, NULL,
+                            b->fstatus);
+    memset(b->fstatus, 0, n * sizeof(int32_t));
+    for (size_t i = 0; i < n; i++) {
+        if (g->init[i] == GCP_FO_GYRO_MID) continue;
+        const double F[3] = {b->Bx[i], b->By[i], b->Bz[i]}, u[3] = {b->ux[i], b->uy[i], b->uz[i]};
+        double e2[3];
+        gcp_fo_gyro_mid_e2(b->q, 1.0, F, u, e2);
+        gcp_fo_gyro_mid_start(g, i, k0, 1.0, e2);
+    }
 }
 
 /* Up to GCP_FO_GYRO_STEPS fused steps with the observer's per-step work
@@ -237,6 +262,7 @@ static int64_t fo_steps_gyro(const struct gcp_evolve *ev, struct fo_ctx *c, stru
 {
     struct gcp_fo_gyro *g = c->gy;
     if (kmax > GCP_FO_GYRO_STEPS) kmax = GCP_FO_GYRO_STEPS;
+    if (g->max_steps > 0 && kmax > g->max_steps) kmax = g->max_steps;
     const int64_t need = (int64_t)n * kmax;
     if (g->cap < need) {
         struct gcp_fo_gyro_rec *r = realloc(g->rec, (size_t)need * sizeof *r);
@@ -245,12 +271,14 @@ static int64_t fo_steps_gyro(const struct gcp_evolve *ev, struct fo_ctx *c, stru
     }
     double *a[6];
     fo_state_arrays(b, a);
-    void *ga[21];
-    fo_gyro_arrays(g, ga);
-    for (int k = 0; k < 6; k++) memcpy(c->gsave + (size_t)k * b->n, a[k], n * sizeof(double));
-    for (int k = 0; k < 21; k++) memcpy(c->gsave + (size_t)(6 + k) * b->n, ga[k], n * sizeof(double));
     const int64_t k0 = ev->o->nsteps - c->left;
     const double t0 = ev->o->t0;
+    fo_gyro_begin(ev, g, b, n, k0, t0 + (double)k0 * ev->o->dt);
+    void *ga[FO_GYRO_NSAVE];
+    fo_gyro_arrays(g, ga);
+    for (int k = 0; k < 6; k++) memcpy(c->gsave + (size_t)k * b->n, a[k], n * sizeof(double));
+    for (int k = 0; k < FO_GYRO_NSAVE; k++)
+        memcpy(c->gsave + (size_t)(6 + k) * b->n, ga[k], n * sizeof(double));
     int64_t kd = kmax;
     int32_t stopped = 0;
     int hg_mode = (c->hg_valid ? GCP_FO_HG_IN : 0) | (kmax < c->left ? GCP_FO_HG_OUT : 0);
@@ -265,7 +293,7 @@ static int64_t fo_steps_gyro(const struct gcp_evolve *ev, struct fo_ctx *c, stru
     int64_t taken = kd;
     if (stopped) {
         for (int k = 0; k < 6; k++) memcpy(a[k], c->gsave + (size_t)k * b->n, n * sizeof(double));
-        for (int k = 0; k < 21; k++)
+        for (int k = 0; k < FO_GYRO_NSAVE; k++)
             memcpy(ga[k], c->gsave + (size_t)(6 + k) * b->n, n * sizeof(double));
         g->nrec = 0;
         /* the restored u's drift factors from u, not b->hg (the first run's) */
@@ -394,7 +422,8 @@ static size_t advance_fo(struct gcp_block *b, const struct gcp_field *f,
             c.gy = gyro;
             if (!form.has_E) c.gyro_tile = p->fused->gyro[form.form];
             if (c.gyro_tile &&
-                (nsteps <= 1 || !(c.gsave = malloc(27 * (b->n + 1) * sizeof(double)))))
+                (nsteps <= 1 ||
+                 !(c.gsave = malloc((6 + FO_GYRO_NSAVE) * (b->n + 1) * sizeof(double)))))
                 c.gyro_tile = NULL;
         }
         if (nsteps > 1) {

@@ -1,15 +1,20 @@
 /* The observer's gyro-average inside the fused full-orbit step (issue 12,
- * gcp_block_advance_fo_gyro, src/pushers/fo_gyro_priv.h) against the
- * observer's own per-step pass (a sampler of every step) on the same block.
+ * gcp_block_advance_fo_gyro, src/pushers/fo_gyro_priv.h: raw sums of each
+ * step's middle, formed into X, p_par, mu once a gyration).
  *
- * The fused step does the same operations in the same order as the
- * per-step pass (the first-order guiding centre, the phase test, the
- * trapezoid sums; the build keeps -ffp-contract=off), only several steps
- * per call with the lanes' state in L1, so every event must be the same
- * bit for bit: the tolerance is zero, and any reordering of a sum would
- * break it.  Each test also checks that the fused path was taken (the
- * sampler was called far less often than once a step), so it cannot pass
- * by falling back to the per-step pass. */
+ * The fused step takes up to 128 steps a call; a call that a lane's stop
+ * cuts short is restored and run again, and the records of a call reach
+ * the observer after it.  None of that may change a number: the same push
+ * with one step a call (gcp_fo_gyro.max_steps = 1, the sampler called
+ * every step) must give the same events bit for bit -- the tolerance is
+ * zero.  Each test also checks that the fused path was taken (the sampler
+ * was called far less often than once a step).  Against the observer's
+ * own per-step pass (another gyro-average: the first-order guiding centre
+ * of every step, the field at it, the trapezoid rule; fields without a
+ * fused step use it), the dipole's mu must agree to O(eps^2), eps = rho /
+ * L_B: both are the gyration-averaged zeroth-order moment, equal to the
+ * first-order invariant to O(eps^2) in a vacuum field
+ * (test_invariants_fo_mu.c for each against an independent reference). */
 #include <math.h>
 #include <string.h>
 
@@ -20,6 +25,7 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
+#include "pushers/fo_gyro_priv.h" /* struct gcp_fo_gyro.max_steps */
 
 #define RE GCP_EARTH_RADIUS
 #define B0 GCP_EARTH_B0
@@ -75,9 +81,9 @@ static struct gcp_field *dipole_scene(struct gcp_block *b0, size_t n, double W, 
 }
 
 /* Pushes the block b0 (n lanes) with boris for nsteps of dt under a fresh
- * observer (mu K L, cadence sample_dt), per-step (fused = 0) or through
- * gcp_block_advance_fo_gyro; the sorted events in *ev, sampler calls
- * returned. */
+ * observer (mu K L, cadence sample_dt): fused = 0, the observer's per-step
+ * pass; 1, gcp_block_advance_fo_gyro one step a call; 2, the same with its
+ * own calls; the sorted events in *ev, sampler calls returned. */
 static int64_t run(const struct gcp_field *f, const struct gcp_block *b0, size_t n, double dt,
                    int64_t nsteps, double sample_dt, int fused, struct gcp_events *ev,
                    int64_t *alive)
@@ -106,6 +112,7 @@ static int64_t run(const struct gcp_field *f, const struct gcp_block *b0, size_t
         if (fused) {
             struct gcp_fo_gyro *g = gcp_observer_fo_gyro(o);
             cr_assert_not_null(g);
+            g->max_steps = fused == 1 ? 1 : 0;
             gcp_block_advance_fo_gyro(&b, f, &gcp_pusher_boris, &po, &smp, g);
         } else {
             gcp_pusher_boris.advance(&b, f, &gcp_pusher_boris, &po, &smp);
@@ -143,19 +150,32 @@ static void same_events(const char *what, const struct gcp_events *a, const stru
                 (long long)kinds[GCP_EVENT_SAMPLE], (long long)kinds[GCP_EVENT_LOSS]);
 }
 
-/* The push of b0 per step and fused (run), whose events must be the same
- * bit for bit; the fused run's events in *eb (the caller frees them),
- * the sampler calls of each in c[0] (per step), c[1] (fused), the live
- * lanes at the end of each in alive[0], alive[1]. */
+/* The push of b0 fused one step a call and with its own calls (run),
+ * whose events must be the same bit for bit; the latter's events in *eb
+ * (the caller frees them), the sampler calls of each in c[0] (one step),
+ * c[1] (fused), the live lanes at the end of each in alive[0], alive[1]. */
 static void run_pair(const char *what, const struct gcp_field *f, const struct gcp_block *b0,
                      size_t n, double dt, int64_t nsteps, double sample_dt, struct gcp_events *eb,
                      int64_t c[2], int64_t alive[2])
 {
     struct gcp_events ea = {0};
-    c[0] = run(f, b0, n, dt, nsteps, sample_dt, 0, &ea, &alive[0]);
-    c[1] = run(f, b0, n, dt, nsteps, sample_dt, 1, eb, &alive[1]);
+    c[0] = run(f, b0, n, dt, nsteps, sample_dt, 1, &ea, &alive[0]);
+    c[1] = run(f, b0, n, dt, nsteps, sample_dt, 2, eb, &alive[1]);
     same_events(what, &ea, eb);
     gcp_events_free(&ea);
+}
+
+/* The mean mu event of lane id in ev (NAN: none), their count in *n. */
+static double mean_mu(const struct gcp_events *ev, int64_t id, int *n)
+{
+    double s = 0;
+    *n = 0;
+    for (int64_t k = 0; k < ev->n + ev->ns; k++) {
+        const struct gcp_event e = gcp_events_get(ev, k);
+        if (e.id != id || e.kind != GCP_EVENT_MU) continue;
+        s += e.v[0], (*n)++;
+    }
+    return *n ? s / *n : NAN;
 }
 
 /* Trapped protons, none lost: the fused path the whole push, with mirror
@@ -171,7 +191,7 @@ Test(invariants_fo_fused, dipole_trapped_bit_identical)
     struct gcp_events eb = {0};
     int64_t c[2], alive[2];
     run_pair("trapped", f, &b0, n, dt, nsteps, 5.0, &eb, c, alive);
-    cr_assert_eq(c[0], nsteps, "the per-step observer sees every step");
+    cr_assert_eq(c[0], nsteps, "one step a call: the sampler sees every step");
     cr_assert_lt(c[1], nsteps / 50, "fused: %lld sampler calls for %lld steps", (long long)c[1],
                  (long long)nsteps);
     cr_assert_eq(alive[0], (int64_t)n);
@@ -179,6 +199,31 @@ Test(invariants_fo_fused, dipole_trapped_bit_identical)
     int drift = 0;
     for (int64_t k = 0; k < eb.n; k++) drift += eb.e[k].kind == GCP_EVENT_DRIFT;
     cr_assert_gt(drift, 0, "a drift turn in the push");
+    /* against the per-step pass: each lane's mean mu within 5 eps^2 (the
+     * O(eps^2) coefficient of test_invariants_fo_mu.c), eps = rho / L_B =
+     * p / (q B_eq) / (L R_E / 3) = 3 p L^2 / (q B0 R_E) of the lane's L
+     * (fill(): 0.049 at L = 4 .. 0.062 at L = 4.5) */
+    struct gcp_events ea = {0};
+    int64_t alive_s;
+    run(f, &b0, n, dt, nsteps, 5.0, 0, &ea, &alive_s);
+    const double W = 2.0 * MEV, mc2 = GCP_M_PROTON * GCP_C_LIGHT * GCP_C_LIGHT;
+    const double p = sqrt(W * (W + 2 * mc2)) / GCP_C_LIGHT;
+    double worst = 0;
+    int lanes = 0;
+    for (size_t i = 0; i < n; i++) {
+        int na, nb;
+        const double ma = mean_mu(&ea, 100 + (int64_t)i, &na);
+        const double mb = mean_mu(&eb, 100 + (int64_t)i, &nb);
+        if (!na || !nb) continue;
+        const double L = 4.0 + 0.5 * (double)i / (double)(n - 1);
+        const double eps = 3.0 * p * L * L / (GCP_E_CHARGE * B0 * RE);
+        worst = fmax(worst, fabs(mb / ma - 1) / (eps * eps)), lanes++;
+    }
+    cr_log_info("trapped: mean mu fused vs per step over %d lanes: worst %.2f eps^2", lanes,
+                worst);
+    cr_assert_geq(lanes, (int)n / 2);
+    cr_assert_lt(worst, 5.0, "mu fused vs per step: %.3g eps^2", worst);
+    gcp_events_free(&ea);
     gcp_events_free(&eb);
     gcp_block_free(&b0);
     gcp_field_free(f);
@@ -188,7 +233,7 @@ Test(invariants_fo_fused, dipole_trapped_bit_identical)
  * which a lane stops is run again to the step before the stop, the
  * stopping step is a plain one with the per-step pass, and the block
  * (no longer dense after the retirement) goes on per step: the same
- * events, the losses' interpolated crossings included. */
+ * events one step a call, the losses' interpolated crossings included. */
 Test(invariants_fo_fused, dipole_losses_bit_identical)
 {
     const size_t n = 16;
@@ -217,7 +262,7 @@ Test(invariants_fo_fused, dipole_losses_bit_identical)
  * (~1e-14), the cancellation in p^2 - p_par^2 multiplies it by
  * p^2 / p_perp^2 = 1/sin^2(60 deg) = 1.33, the trapezoid average and the
  * linear interpolation add a few ulp: 1e-12 relative is ~50x that.  The
- * fused run must also equal the per-step one bit for bit. */
+ * fused run must also equal the one of one step a call bit for bit. */
 Test(invariants_fo_fused, uniform_mu_analytic)
 {
     const double Bz = 1e-6, Bv[3] = {0, 0, Bz}, E[3] = {0, 0, 0};
