@@ -40,7 +40,17 @@
  * t(ds') = t1 to 4 ulp by Newton's iteration with dt/ds' = w(s) at the
  * step's end (the exact flow's rate; gc_sundman.c's secant through the
  * origin converges linearly, too slowly over a whole grid step), written
- * to X, p_par -- and not kept: the lane goes on from its grid point.  So the
+ * to X, p_par -- and not kept: the lane goes on from its grid point.  The
+ * landing is never longer than one grid step (ds' <= ds): where w falls
+ * along it (toward a mirror point) the predicted t + 1.5 ds w(s) can hide
+ * 2-3 grid steps of s, and GL4's energy error at the end of a step of
+ * ds' grows as ds'^4 -- 12x the grid's band at the 82-deg mirror point at
+ * ds = T_b/40 (tests/unit/test_gc_sundman_line.c landed_outputs_...).  So
+ * a Newton iterate past ds, unless the grid step is already known to end
+ * past t1, turns the landing back into a grid step (the same bits: the
+ * grid step's predictor reads only its grid point and history), and the
+ * lane lands from the next grid point; every iterate, the first
+ * included, is held to <= ds.  So the
  * map of the lane is exactly the symplectic s-step map however often it
  * is sampled (gc_sundman.c's landing step, kept, is not symplectic), and
  * the numbers do not depend on how the push is sliced (the landing adds
@@ -95,6 +105,8 @@ struct sdl_tile {
     struct dgl_tile g;
     double t[DGL_TILE], cL[DGL_TILE], hg[DGL_TILE], hv[DGL_TILE]; /* hv: the lane's `have` */
     double mode[DGL_TILE];      /* 0 grid steps, 1 landing, 2 done */
+    double gs[DGL_TILE];        /* 1: a grid step is known to end before t1 (take it) */
+    double past[DGL_TILE];      /* 1: the next grid step is known to end past t1 */
     double dsp[DGL_TILE];       /* [s] this round's step in sig */
     double dsk[DGL_TILE], span[DGL_TILE], nl[DGL_TILE]; /* landing: step, t1 - t, iterates */
     double os[DGL_TILE], oQ[DGL_TILE], op[DGL_TILE], ot[DGL_TILE]; /* the state written out */
@@ -130,6 +142,7 @@ static void sdl_gather(struct sdl_tile *t, const unsigned char *lanes, size_t nt
         for (int n = 0; n <= GL_SMAX; n++) g->hist[n][0][i] = l->hist[n][0], g->hist[n][1][i] = l->hist[n][1];
         t->t[i] = l->t, t->cL[i] = l->cL, t->hg[i] = l->hg, t->hv[i] = l->have;
         t->mode[i] = 0.0, t->status[i] = 0, t->steps[i] = 0;
+        t->gs[i] = 0.0, t->past[i] = 0.0;
     }
 }
 
@@ -183,11 +196,11 @@ sdl_tile_run(const int S, const struct gcp_evolve *ev, const struct sdl_ctx *c, 
     for (;;) {
         int any = 0;
         for (size_t i = 0; i < nt; i++) {
-            if (t->mode[i] == 0.0) {
+            if (t->mode[i] == 0.0 && t->gs[i] == 0.0) {
                 const double w0 = sdl_w(g->s[i], g->c04[i]);
                 if (t->t[i] + 1.5 * ds * w0 >= t1)
-                    t->mode[i] = 1.0, t->span[i] = t1 - t->t[i], t->dsk[i] = t->span[i] / w0,
-                    t->nl[i] = 0.0;
+                    t->mode[i] = 1.0, t->span[i] = t1 - t->t[i], t->dsk[i] = fmin(t->span[i] / w0, ds),
+                    t->nl[i] = 0.0, t->past[i] = 0.0;
             }
             if (t->mode[i] == 1.0 && t->span[i] == 0.0) /* on t1 already */
                 sdl_done(t, i, g->s[i], g->Q[i], g->phip[i], t1, 0);
@@ -214,6 +227,7 @@ sdl_tile_run(const int S, const struct gcp_evolve *ev, const struct sdl_ctx *c, 
                 if (tn > t1) {
                     /* past t1: not taken (the next slice takes it again) */
                     t->mode[i] = 1.0, t->span[i] = t1 - t->t[i], t->nl[i] = 0.0;
+                    t->gs[i] = 0.0, t->past[i] = 1.0;
                     t->dsk[i] = ds * (t->span[i] / (tn - t->t[i]));
                     continue;
                 }
@@ -222,6 +236,7 @@ sdl_tile_run(const int S, const struct gcp_evolve *ev, const struct sdl_ctx *c, 
                     g->hist[1 + st][0][i] = g->Y[st][0][i], g->hist[1 + st][1][i] = g->Y[st][1][i];
                 g->phip[i] = dgl_wrap(g->phip[i] + g->hh[i] * g->dp[i]);
                 g->s[i] = g->s1[i], g->Q[i] = g->Q1[i], t->t[i] = tn, t->hv[i] = 1.0;
+                t->gs[i] = 0.0;
                 t->steps[i]++;
                 const double s = g->s[i], r = g->L[i] * (1.0 - s * s);
                 const int32_t cand =
@@ -243,7 +258,12 @@ sdl_tile_run(const int S, const struct gcp_evolve *ev, const struct sdl_ctx *c, 
                     sdl_done(t, i, g->s[i], g->Q[i], g->phip[i], t->t[i],
                              gcp_lane_fail(b, i0 + i, GCP_FAIL_NO_CONVERGENCE));
                 } else {
-                    t->dsk[i] += (t1 - tn) / sdl_w(g->s1[i], g->c04[i]);
+                    const double nd = t->dsk[i] + (t1 - tn) / sdl_w(g->s1[i], g->c04[i]);
+                    if (nd > ds && t->past[i] == 0.0)
+                        /* t1 lies more than a grid step ahead: take the grid step */
+                        t->mode[i] = 0.0, t->gs[i] = 1.0;
+                    else
+                        t->dsk[i] = fmin(nd, ds);
                 }
             }
         }
