@@ -147,6 +147,11 @@ struct gcp_observer {
     /* per lane li: the stream contour's recorded points not yet in L->cst,
      * (t, X[3]) each, cap points of room (kept from push to push) */
     struct { double *p; int cap; } *sq;
+    /* tests (test_invariants_quiet.c): st_eager takes every stream point
+     * into the contour at once (the reference of the deferred contour);
+     * st_skipped counts the points of contours found to make no turn */
+    int st_eager;
+    int64_t st_skipped;
     struct gcp_fo_gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
      * push, the last live position and time (loss interpolation) */

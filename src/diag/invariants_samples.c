@@ -93,6 +93,10 @@ static void stream_point(struct gcp_observer *o, struct lane *L, int64_t id, con
     const double R = sqrt(X[0] * X[0] + X[1] * X[1]);
     L->cst.cprev = R > 0 ? X[0] / R : 1.0;
     L->cst.sprev = R > 0 ? X[1] / R : 0.0;
+    if (o->st_eager) {
+        stream_point_in(o, L, id, t, X);
+        return;
+    }
     if (L->nq == o->sq[li].cap) {
         const int cap = L->nq ? 2 * L->nq : 64;
         double *p = cap <= SQ_MAX ? realloc(o->sq[li].p, (size_t)cap * 4 * sizeof(double)) : NULL;
@@ -198,6 +202,7 @@ void gcp_obs_finish(struct gcp_observer *o, const struct gcp_block *b)
             double R, psi, AR, Az;
             gcp_obs_contour_of(o, o->sq[li].p[0], X, &R, &psi, &AR, &Az);
             if (!isfinite(psi)) L->psi_nan = 1;
+            o->st_skipped += L->nq;
             L->nq = 0;
         } else {
             gcp_obs_stream_flush(o, L, li);
