@@ -237,6 +237,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->By = calloc(n, sizeof(double));
     o->Bz = calloc(n, sizeof(double));
     o->fst = calloc(n, sizeof(int32_t));
+    o->sq = calloc(n, sizeof *o->sq);
     /* the full-orbit scratch and struct gyro, in one allocation */
     struct gcp_fo_gyro *g = &o->g;
     double **v[] = {&o->Xx, &o->Xy, &o->Xz, &o->Cx, &o->Cy, &o->Cz, &o->Vpp, &o->Vmu, &o->Vp2,
@@ -265,7 +266,7 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
         o->hot.slow = o->gflags + 8 * n;
         g->kstart = o->gflags + 9 * n;
     }
-    if (fail || !o->lane || !o->Bx || !o->By || !o->Bz || !o->fst) {
+    if (fail || !o->lane || !o->sq || !o->Bx || !o->By || !o->Bz || !o->fst) {
         gcp_observer_free(o);
         return GCP_ERR_NOMEM;
     }
@@ -290,6 +291,8 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
 void gcp_observer_free(struct gcp_observer *o)
 {
     if (!o) return;
+    for (size_t i = 0; o->sq && i < o->nlanes; i++) free(o->sq[i].p);
+    free(o->sq);
     free(o->lane);
     free(o->Bx);
     free(o->By);

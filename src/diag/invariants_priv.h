@@ -64,6 +64,11 @@ struct lane {
      * on the cadence (drift-phase crossings for lanes whose equator points
      * make no turn: invariants_samples.c) */
     struct contour ceq, cst;
+    /* the stream contour's points are recorded (t, X: o->sq) and go into
+     * cst only where its rows can be kept (gcp_obs_stream_flush): st_n
+     * points recorded in all, the last at st_t; nq of them not yet in cst */
+    int st_n, nq;
+    double st_t;
     /* what the push found (the /invariants/undefined reasons) */
     int n_mirror, n_bounce, n_drift_eq, n_drift_st, psi_nan;
     /* cadence samples (opts.sample_dt): the next grid index k of
@@ -139,6 +144,14 @@ struct gcp_observer {
         int per_lane;
         int64_t passes;
     } hot;
+    /* per lane li: the stream contour's recorded points not yet in L->cst,
+     * (t, X[3]) each, cap points of room (kept from push to push) */
+    struct { double *p; int cap; } *sq;
+    /* tests (test_invariants_quiet.c): st_eager takes every stream point
+     * into the contour at once (the reference of the deferred contour);
+     * st_skipped counts the points of contours found to make no turn */
+    int st_eager;
+    int64_t st_skipped;
     struct gcp_fo_gyro g;
     /* per lane li, dense, as they are written at every step: begun in this
      * push, the last live position and time (loss interpolation) */
@@ -249,6 +262,9 @@ double gcp_obs_wrap_pi(double a);
 /* The cadence work of stream sample s (samples rows, the stream contour),
  * before s becomes L->s1 (invariants_samples.c). */
 void gcp_obs_cadence(struct gcp_observer *o, struct lane *L, int64_t id, const struct gsample *s);
+/* The stream contour's recorded points of lane li into L->cst (potentials,
+ * azimuths, drift_point): its drift rows up to the last point. */
+void gcp_obs_stream_flush(struct gcp_observer *o, struct lane *L, size_t li);
 /* After the push: drops the rows that the lane's other rows replace, adds
  * the /invariants/undefined rows. */
 void gcp_obs_finish(struct gcp_observer *o, const struct gcp_block *b);

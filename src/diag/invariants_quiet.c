@@ -95,7 +95,7 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
     if (contour) tn = fmin(tn, o->t0 + (double)L->d_k * T);
     /* no sample yet: never quiet (the pass reads no have[] of its own) */
     o->hot.tnext[li] = L->have_s1 ? tn : -INFINITY;
-    o->hot.az[li] = contour && L->cst.n;
+    o->hot.az[li] = contour && L->st_n;
     o->hot.cx[li] = L->cst.cprev, o->hot.cy[li] = L->cst.sprev;
 }
 
