@@ -38,13 +38,41 @@
 
 enum { EXIT_RUN_FAILED = 1, EXIT_BAD_INPUT = 2, EXIT_INTERRUPTED = 3 };
 
-static volatile sig_atomic_t stop_requested = 0;
+static volatile sig_atomic_t stop_requested = 0; /* the signal's number, 0 for none */
 /* the driver polls it as a volatile int (struct gcp_schedule.stop) */
 _Static_assert(sizeof(sig_atomic_t) == sizeof(int), "sig_atomic_t is not an int here");
 static void on_signal(int sig)
 {
-    (void)sig;
-    stop_requested = 1;
+    stop_requested = sig;
+}
+
+/* SIGUSR1 too: mpirun forwards it to every rank, whereas it answers
+ * SIGINT/SIGTERM by killing the job after a short grace period. */
+static const int stop_signals[] = {SIGINT, SIGTERM, SIGUSR1};
+
+/* Caught from the first line of main, before MPI_Init: a signal that came
+ * during start-up (a 2-rank MPI_Init under load took over a second, the
+ * scene and checks as long again) killed the rank by its default action,
+ * and mpirun then aborted the whole job; now it is only noted, and the push
+ * answers it at its first slice (a checkpoint, exit status 3).  Called
+ * again after MPI_Init in case MPI installed handlers of its own. */
+static void catch_stop_signals(void)
+{
+    struct sigaction sa = {.sa_handler = on_signal};
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    for (size_t i = 0; i < sizeof stop_signals / sizeof *stop_signals; i++)
+        sigaction(stop_signals[i], &sa, NULL);
+}
+
+/* Paths that write no checkpoint (--check, grid, a sweep, --help):
+ * the signals' default action again, and a signal noted during start-up
+ * acts now, as it would have when it came. */
+static void default_stop_signals(void)
+{
+    for (size_t i = 0; i < sizeof stop_signals / sizeof *stop_signals; i++)
+        signal(stop_signals[i], SIG_DFL);
+    if (stop_requested) raise(stop_requested);
 }
 
 static void usage(FILE *to)
@@ -407,10 +435,12 @@ static void keep_freed_memory(void)
 
 int main(int argc, char **argv)
 {
+    catch_stop_signals();
     keep_freed_memory();
     gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
     gcp_par_local_defaults(); /* all ranks on this node: no network probing (README) */
     MPI_Init(&argc, &argv);
+    catch_stop_signals();
     gcp_phase_mark("init");
     MPI_Comm comm = MPI_COMM_WORLD;
     int me, nranks;
@@ -420,6 +450,7 @@ int main(int argc, char **argv)
     int check = 0, quiet = 0, restart = 0, force = 0;
     const char *arg = NULL;
     if (argc == 3 && strcmp(argv[1], "grid") == 0) {
+        default_stop_signals();
         struct gcp_error gerr = {0};
         char out[1024];
         int grc = me == 0 ? gcp_grid_command(argv[2], out, sizeof out, &gerr) : 0;
@@ -485,6 +516,7 @@ int main(int argc, char **argv)
                     "(those particles end NONFINITE)\n", sc->pops[k].file,
                     (long long)sc->pops[k].init.nonfinite, (long long)sc->pops[k].count);
     if (!restart && gcp_sweep_wanted(sc)) { /* [sweep]: error against run time (sweep.h) */
+        default_stop_signals();
         /* a sweep's output is not replaced without --force either */
         int exists = !check && me == 0 && !force && access(sc->output, F_OK) == 0;
         MPI_Bcast(&exists, 1, MPI_INT, 0, comm);
@@ -500,6 +532,7 @@ int main(int argc, char **argv)
         return st;
     }
     if (check) {
+        default_stop_signals();
         if (me == 0 && !quiet) {
             printf("%s: ok: %lld particles, %s in %s for %.6g s\n", arg, (long long)sc->total,
                    sc->pusher->name, sc->field_model, sc->duration);
@@ -533,12 +566,6 @@ int main(int argc, char **argv)
         return EXIT_BAD_INPUT;
     }
     gcp_phase_mark("checks");
-    /* SIGUSR1 too: mpirun forwards it to every rank, whereas it answers
-     * SIGINT/SIGTERM by killing the job after a short grace period */
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-    signal(SIGUSR1, on_signal);
-
     gcp_output_progress(!quiet);
     struct gcp_results res;
     gcp_results_init(&res, sc->trajectory_samples, sc->pusher->kind == GCP_GUIDING_CENTRE);

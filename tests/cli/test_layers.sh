@@ -116,5 +116,32 @@ for h in kernels.h field_kernels.h field.h pusher.h gc.h particles.h grid.h inva
 done
 rm -f /tmp/layers.$$
 
-[ $fail = 0 ] && echo "ok layers (include directions, exported symbols, MPI-free public headers)"
+# 4. No FMA contraction: the build promises -ffp-contract=off results
+#    (bit-identical scalar, batch and AoS kernels), so no object of the
+#    library or CLI holds an x86 fused multiply-add, except the explicit
+#    fma() calls of GCP_NR_FMA_/GCP_NR_CROSS_ (include/gcpush/kernels.h) in
+#    the two objects that use them; fma() never gives vfmaddsub/vfmsubadd,
+#    so those are refused everywhere.  GCC 12's SLP vectoriser fused them
+#    into tokamak_potential and gc_gauss_wlift.c despite the flag (Makefile:
+#    NOFUSE_OBJ).  Other targets (and the -O1 DEBUG=1 build) have none to find.
+FMA_OK="src/pushers/boris_nr.o src/pushers/fo_step.o"
+if [ -f "$a" ] && command -v objdump > /dev/null; then
+    for o in "$a" $BUILD/src/gcpush.o; do
+        [ -f "$o" ] || continue
+        objdump -d --no-show-raw-insn "$o" | awk -v ok=" $FMA_OK " -v top="$o" '
+            /^In archive/ { next }
+            /: +file format/ { obj = $1; sub(/:$/, "", obj); sub(/.*\//, "", obj); next }
+            /^[0-9a-f]+ <.*>:$/ { fn = $2; sub(/:$/, "", fn); next }
+            /\tv?f(n)?m(add|sub)/ {
+                allowed = 0
+                for (i = 1; i <= split(ok, w, " "); i++) { n = w[i]; sub(/.*\//, "", n); if (n == obj) allowed = 1 }
+                if (!allowed || /fm(addsub|subadd)/) bad[obj " " fn]++
+            }
+            END { for (k in bad) print k ": " bad[k] " FMA instruction(s)" }' > /tmp/layers.$$
+        [ -s /tmp/layers.$$ ] && say "FMA contraction in $o: $(head -5 /tmp/layers.$$ | tr '\n' ';')"
+    done
+    rm -f /tmp/layers.$$
+fi
+
+[ $fail = 0 ] && echo "ok layers (include directions, exported symbols, MPI-free public headers, no FMA contraction)"
 exit $fail
