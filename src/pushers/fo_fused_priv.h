@@ -231,17 +231,20 @@ struct gcp_fo_fused {
  * bz and IG0 for its kick. */
 #define GCP_FO_STASH_B_ (K[0][i] = bx, K[1][i] = by, K[2][i] = bz, K[3][i] = IG0)
 
-/* The close of the gyrations that end in a step (GCP_FO_GYRO_TILE_DEFINE_)
- * for the 8 tile lanes IX[0..7], NK of them kept: the per-lane arithmetic
- * of gcp_fo_gyro_close_vals and the rebuilt step before, in one loop over
- * the 8 (one vector a value; gathers of the lane state, scatters of the new
- * gyration's; a padded lane repeats a kept one, writing the same values),
- * then the NK records in lane order.  Closed one lane at a time, the
- * scalar close and rebuild were ~40% of the tile's time. */
-/* An empty statement GCC cannot vectorise across: keeps the copy loops of
- * GCP_FO_GYRO_CLOSE8_ scalar (Zen 4's 8-lane gathers and scatters cost
- * more than the 8 scalar moves). */
+/* An empty statement GCC does not vectorise across: keeps the copy loops
+ * of GCP_FO_GYRO_CLOSE8_ scalar (8-lane gathers and scatters measured
+ * slower here, AMD EPYC Zen 4, than the 8 scalar moves). */
 #define GCP_FO_NOVEC_ __asm__ volatile("")
+
+/* The close of the gyrations that end in a step (GCP_FO_GYRO_TILE_DEFINE_)
+ * for the 8 tile lanes IX[0..7] (padded: a repeat of a lane before), the
+ * first NK of them real: their state copied into 8-lane arrays, the
+ * rebuilt step before and gcp_fo_gyro_close_vals in one loop over the 8
+ * (one vector a value: the divisions and square roots of 8 lanes at the
+ * price of one's), then the new gyrations' state and the kept records
+ * written back in lane order.  Closed one lane at a time, the scalar close
+ * and rebuild were ~40% of the tile's time.  The same operations on each
+ * lane's values as one lane at a time: bit-identical. */
 #define GCP_FO_GYRO_CLOSE8_(FORM_, FT_, IX, NK)                                                 \
     {                                                                                           \
         const int64_t *restrict ix8 = (IX);                                                     \
