@@ -47,7 +47,7 @@ struct gcp_fo_gyro_rec {
     double mu;     /* [J/T]; with mid set, p_perp^2 [kg^2 m^2/s^2] (the observer
                     * divides by 2 m |B(X)|) */
     double p2;     /* [kg^2 m^2/s^2] */
-    int mid;       /* from the fused step's raw sums (gcp_fo_gyro_close) */
+    int mid;       /* from the fused step's raw sums (gcp_fo_gyro_close_vals) */
 };
 
 /* gcp_fo_gyro.init: no gyration in progress, one of the observer's
@@ -63,10 +63,10 @@ struct gcp_fo_gyro {
     int64_t *init, *left; /* left: the gyroradius has been on the far side of e1
                            * (GCP_FO_GYRO_MID: u.e2 has been negative) */
     /* GCP_FO_GYRO_MID: the raw sums over the gyration's steps so far
-     * (gcp_fo_gyro_close), the push step it began at */
+     * (gcp_fo_gyro_close_vals), the push step it began at */
     double *sum[9];
     double *w0;           /* the weight of its first step's sample */
-    double *jc;           /* the slope's part of its time sum (gcp_fo_gyro_close) */
+    double *jc;           /* the slope's part of its time sum (gcp_fo_gyro_close_vals) */
     int64_t *kstart;
     double *rho[3];       /* [m] rho = x - X of the previous step */
     double *e1[3], *e2[3];
@@ -222,7 +222,9 @@ static inline void gcp_fo_gyro_mid_start(struct gcp_fo_gyro *G, size_t li, int64
 static inline void gcp_fo_gyro_mid_e2(double q, double a, const double F[3], const double u[3],
                                       double e2[3])
 {
-    const double sg = (q > 0) == (a > 0) ? 1.0 : -1.0;
+    /* (q > 0) == (a > 0) as selects (a comparison of two masks stops GCC
+     * vectorising the fused step's close: fo_fused_priv.h) */
+    const double sg = q > 0 ? (a > 0 ? 1.0 : -1.0) : (a > 0 ? -1.0 : 1.0);
     e2[0] = sg * (F[1] * u[2] - F[2] * u[1]);
     e2[1] = sg * (F[2] * u[0] - F[0] * u[2]);
     e2[2] = sg * (F[0] * u[1] - F[1] * u[0]);
@@ -242,52 +244,50 @@ static inline void gcp_fo_gyro_mid_sample(const double xh[3], const double F[3],
     f[8] = F[0] * F[0] + F[1] * F[1] + F[2] * F[2];
 }
 
-/* The gyration of lane li that ended in push step k (its sums hold that
- * step's sample f whole; fp: the step before's): *r from the sums (above)
- * less the part of step k past the crossing, which begins the next one
- * there.  F = a B, u0 = u- and u1 = u+ of step k.  Returns 1 where *r was
- * filled (but r->lane). */
-static inline __attribute__((always_inline)) int
-gcp_fo_gyro_close(struct gcp_fo_gyro *G, size_t li, int64_t k, double t0, double dt, double q,
-                  double m, const double F[3], double a, const double f[9], const double fp[9],
-                  const double u0[3], const double u1[3], struct gcp_fo_gyro_rec *r)
+/* The close of a gyration that ended in push step k, on one lane's values
+ * (the fused tile closes the lanes of a step together, as a struct of
+ * arrays: fo_fused_priv.h): ks, w0, jc, e2 and S = the raw sums of the
+ * gyration (holding step k's sample f whole; fp: the step before's).  The
+ * record's t, X[3], p_par, mu (p_perp^2) and p^2 go to rv[0..6] from the
+ * sums (above) less the part of step k past the crossing, which begins the
+ * next gyration there: its sums fn[9], e2n, first weight *w0n and slope
+ * share *jcn.  F = a B, u0 = u- and u1 = u+ of step k.  Branch-free (the
+ * record's values are formed whether or not it is kept); returns 1.0 where
+ * the record is kept (N > 1 and S_F > 0), else 0.0. */
+static inline __attribute__((always_inline)) double
+gcp_fo_gyro_close_vals(int64_t k, int64_t ks, double w0, double jc, const double e2[3],
+                       const double S0[9], double t0, double dt, double q, double m,
+                       const double F[3], double a, const double f[9], const double fp[9],
+                       const double u0[3], const double u1[3], double rv[7], double fn[9],
+                       double e2n[3], double *w0n, double *jcn)
 {
-    const double e2[3] = {G->e2[0][li], G->e2[1][li], G->e2[2][li]};
     const double d0 = gcp_fo_gyro_dot3(u0, e2), d1 = gcp_fo_gyro_dot3(u1, e2);
     const double th = d0 / (d0 - d1), rest = 1.0 - th; /* d0 > 0 >= d1 */
     const double cs = 0.5 * th * rest; /* the slope's weight */
-    double S[9], fn[9];
+    double S[9];
     for (int j = 0; j < 9; j++) {
         fn[j] = rest * f[j] + cs * (f[j] - fp[j]); /* the part past the crossing */
-        S[j] = G->sum[j][li] - fn[j];
+        S[j] = S0[j] - fn[j];
     }
-    const int64_t ks = G->kstart[li];
-    const double w0 = G->w0[li];
     const double N = (double)(k - ks + 1) - (1.0 - w0) - rest;
     const double u2 = gcp_fo_gyro_dot3(u1, u1);
-    int out = 0;
-    if (N > 1 && S[8] > 0) {
-        /* the samples' times t0 + (j + 1/2) dt, weighted */
-        const double jbar = (0.5 * (double)(ks + k) * (double)(k - ks + 1) -
-                             (1.0 - w0) * (double)ks - rest * (double)k - cs + G->jc[li]) / N;
-        r->t = t0 + (jbar + 0.5) * dt;
-        /* S_r, S_p, S_p2 are of us = 2 u_1/2 */
-        const double rf = 0.5 * m * a / (q * S[8]);
-        for (int j = 0; j < 3; j++) r->X[j] = S[j] / N - rf * S[3 + j];
-        r->ppar = (a > 0 ? 0.5 : -0.5) * m * S[6] / sqrt(S[8] * N);
-        r->p2 = m * m * u2;
-        const double pp = m * m * (u2 - 0.25 * S[7] / S[8]);
-        r->mu = pp > 0.0 ? pp : 0.0;
-        r->mid = 1;
-        out = 1;
-    }
-    double uc[3], e2n[3];
+    /* the samples' times t0 + (j + 1/2) dt, weighted */
+    const double jbar = (0.5 * (double)(ks + k) * (double)(k - ks + 1) - (1.0 - w0) * (double)ks -
+                         rest * (double)k - cs + jc) / N;
+    rv[0] = t0 + (jbar + 0.5) * dt;
+    /* S_r, S_p, S_p2 are of us = 2 u_1/2 */
+    const double rf = 0.5 * m * a / (q * S[8]);
+    for (int j = 0; j < 3; j++) rv[1 + j] = S[j] / N - rf * S[3 + j];
+    rv[4] = (a > 0 ? 0.5 : -0.5) * m * S[6] / sqrt(S[8] * N);
+    const double pp = m * m * (u2 - 0.25 * S[7] / S[8]);
+    rv[5] = pp > 0.0 ? pp : 0.0;
+    rv[6] = m * m * u2;
+    double uc[3];
     for (int j = 0; j < 3; j++) uc[j] = u0[j] + th * (u1[j] - u0[j]);
     gcp_fo_gyro_mid_e2(q, a, F, uc, e2n);
-    gcp_fo_gyro_mid_start(G, li, k, rest, e2n);
-    for (int j = 0; j < 9; j++) G->sum[j][li] = fn[j];
-    G->jc[li] = cs; /* the slope's share of the first step's time */
-    return out;
+    *w0n = rest;
+    *jcn = cs; /* the slope's share of the first step's time */
+    return N > 1 ? (S[8] > 0 ? 1.0 : 0.0) : 0.0;
 }
 
 #endif
