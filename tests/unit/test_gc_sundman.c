@@ -121,16 +121,7 @@ static double sd_residual(const struct sd_sys *S, const struct gl_ctx *C, const 
         }
         for (int i = 0; i < 6; i++) M[i][j] = (y1p[i] - y1m[i]) / (2e-5 * sc[j]);
     }
-    /* pairs (0, 3), (1, 4), (2, 5) */
-    double res = 0.0;
-    for (int i = 0; i < 6; i++)
-        for (int j = 0; j < 6; j++) {
-            double r = (j == i + 3) ? -1.0 : (i == j + 3) ? 1.0 : 0.0;
-            for (int a = 0; a < 3; a++) r += M[a][i] * M[a + 3][j] - M[a + 3][i] * M[a][j];
-            const double ai = sc[i % 3] * sc[i % 3 + 3], aj = sc[j % 3] * sc[j % 3 + 3];
-            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(ai * aj));
-        }
-    return res;
+    return gc_ext_symplectic_residual((const double(*)[6])M, sc);
 }
 
 Test(gc_sundman, extended_map_is_symplectic, .timeout = 120)

@@ -91,15 +91,7 @@ static double sl_residual(const struct sl_sys *S, int stages, double c04, const 
         }
         for (int i = 0; i < 6; i++) M[i][j] = (y1p[i] - y1m[i]) / (2e-5 * sc[j]);
     }
-    double res = 0.0;
-    for (int i = 0; i < 6; i++)
-        for (int j = 0; j < 6; j++) {
-            double r = (j == i + 3) ? -1.0 : (i == j + 3) ? 1.0 : 0.0;
-            for (int a = 0; a < 3; a++) r += M[a][i] * M[a + 3][j] - M[a + 3][i] * M[a][j];
-            const double ai = sc[i % 3] * sc[i % 3 + 3], aj = sc[j % 3] * sc[j % 3 + 3];
-            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(ai * aj));
-        }
-    return res;
+    return gc_ext_symplectic_residual((const double(*)[6])M, sc);
 }
 
 /* For ds = T_b/30 .. T_b/240 (gl2 and gl4, the electrons mirroring at 63

@@ -315,6 +315,23 @@ static inline double gc_symplectic_residual(const double M[4][4], const double s
     return res;
 }
 
+/* The same in the extended phase space of the Sundman forms, z = (q1, q2,
+ * t, p1, p2, p_t) with pairs (0, 3), (1, 4), (2, 5): max |(M^T J M - J)_ij|
+ * scaled by sc_i sc_j / sqrt(action_i action_j), the actions sc[k] sc[k+3]
+ * (test_gc_sundman.c, test_gc_sundman_line.c). */
+static inline double gc_ext_symplectic_residual(const double M[6][6], const double sc[6])
+{
+    double res = 0.0;
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < 6; j++) {
+            double r = (j == i + 3) ? -1.0 : (i == j + 3) ? 1.0 : 0.0;
+            for (int a = 0; a < 3; a++) r += M[a][i] * M[a + 3][j] - M[a + 3][i] * M[a][j];
+            const double ai = sc[i % 3] * sc[i % 3 + 3], aj = sc[j % 3] * sc[j % 3 + 3];
+            res = fmax(res, fabs(r) * sc[i] * sc[j] / sqrt(ai * aj));
+        }
+    return res;
+}
+
 /* The first three sign changes of p_par along an orbit (a gcp_gc_push
  * callback; stops the push at the third), each by linear interpolation
  * between the samples around it: two of them bracket one bounce. */
