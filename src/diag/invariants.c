@@ -44,6 +44,7 @@
 #endif
 
 #include "gcpush/error.h"
+#include "gcpush/field_kernels.h"
 #include "gcpush/gc.h"
 #include "gcpush/invariants.h"
 #include "gcpush/kernels.h"
@@ -284,6 +285,9 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->stream = o->want_bounce || o->want_eq;
     if (!(opts->sample_dt > 0)) o->opts.sample_dt = 0.0;
     o->B0 = opts->B0 > 0 ? opts->B0 : gcp_observer_reference_B0(f);
+    struct gcp_point_B form;
+    if (o->gc && gcp_field_point_B(f, &form) && form.form == GCP_POINT_B_DIPOLE)
+        o->pdip = 1, o->pc = form.p[0];
     *out = o;
     return 0;
 }
@@ -648,12 +652,6 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         o->lane[li].mode = mode;
         o->g.init[li] = 0;
     }
-    if (o->stream && n && !fo_done) {
-        memset(o->fst, 0, n * sizeof(int32_t));
-        o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
-                               NULL, o->fst);
-    }
-    if (o->stream && !gc && n && !fo_done) gcp_obs_fo_block(o, b, t);
     /* dense: the lanes' indices are still 0 .. n-1 and all begun (a block
      * before its first retirement), tested as one vectorised reduction */
     int dense = n <= o->nlanes;
@@ -665,12 +663,19 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         for (size_t i = 0; i < n; i++) off |= idx[i] ^ i, on &= act[i];
         dense = off == 0 && on;
     }
+    /* the quiet pass needs every live lane begun (always, after
+     * gcp_observer_begin), and no other source of stream samples */
+    int all = o->stream && gc && n && o->gc && !o->hybrid && !o->hot.per_lane;
+    for (size_t i = 0; all && !dense && i < n; i++)
+        all = b->index[i] < o->nlanes && o->active[b->index[i]];
+    /* B at the lanes: in the quiet pass itself for the dipole's closed form */
+    if (o->stream && n && !fo_done && !(all && o->pdip)) {
+        memset(o->fst, 0, n * sizeof(int32_t));
+        o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
+                               NULL, o->fst);
+    }
+    if (o->stream && !gc && n && !fo_done) gcp_obs_fo_block(o, b, t);
     if (o->stream && gc && n) {
-        /* the quiet pass needs every live lane begun (always, after
-         * gcp_observer_begin), and no other source of stream samples */
-        int all = o->gc && !o->hybrid && !o->hot.per_lane;
-        for (size_t i = 0; all && !dense && i < n; i++)
-            all = b->index[i] < o->nlanes && o->active[b->index[i]];
         if (all) {
             gcp_obs_stream_quiet(o, b, t, n, dense);
             /* the ring holds the last live positions (loss) */

@@ -28,6 +28,7 @@
 #include <math.h>
 #include <stdint.h>
 
+#include "gcpush/field_kernels.h"
 #include "gcpush/invariants.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
@@ -117,12 +118,12 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * own had ~40 and ~30. */
 static inline __attribute__((always_inline)) void
 stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
-                  const size_t *restrict idx)
+                  const size_t *restrict idx, int dip)
 {
     const double *restrict x = b->x, *restrict y = b->y, *restrict z = b->z;
     const double *restrict pp = b->ppar, *restrict mu = b->mu;
     const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
-    const double m = o->m;
+    const double m = o->m, pc = o->pc;
     const int p = o->hot.cur, c = (p + 1) % 3;
     /* every lane's previous sample is at the slot's time; a lane that has
      * none has tnext = -inf (lane_to_hot), so it is not calm */
@@ -138,8 +139,13 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
     GCP_OBS_IVDEP
     for (size_t i = 0; i < n; i++) {
         const size_t li = idx ? idx[i] : i;
+        /* B at the lane: the field's block evaluation's (dip: the same
+         * numbers inline, no B arrays written and read back) */
+        double bx, by, bz;
+        if (dip) gcp_point_B_dipole(pc, x[i], y[i], z[i], &bx, &by, &bz);
+        else bx = Bx[i], by = By[i], bz = Bz[i];
         /* observe_live's |B|, p^2, jd (jdot's expressions) */
-        const double Gb = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
+        const double Gb = sqrt(bx * bx + by * by + bz * bz);
         const double Gp2 = pp[i] * pp[i] + 2.0 * m * mu[i] * Gb;
         const double Gjd = pp[i] * pp[i] / sqrt(m * m + Gp2 / (GCP_C_LIGHT * GCP_C_LIGHT));
         const double dot = x[i] * cx[li] + y[i] * cy[li];
@@ -177,8 +183,13 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
 {
     const size_t *idx = b->index;
     o->hot.rt[(o->hot.cur + 1) % 3] = t;
-    if (dense) stream_quiet_pass(o, b, t, n, NULL);
-    else stream_quiet_pass(o, b, t, n, idx);
+    if (o->pdip) {
+        if (dense) stream_quiet_pass(o, b, t, n, NULL, 1);
+        else stream_quiet_pass(o, b, t, n, idx, 1);
+    } else {
+        if (dense) stream_quiet_pass(o, b, t, n, NULL, 0);
+        else stream_quiet_pass(o, b, t, n, idx, 0);
+    }
     o->hot.passes++;
     const int p = o->hot.cur, c = (p + 1) % 3;
     /* the positions of the lanes that were not quiet (~1 in 10 a step:
