@@ -108,6 +108,9 @@ struct gcp_observer {
      * field's own block evaluation bit for bit) instead of from Bx, By, Bz */
     int pdip;
     double pc;
+    /* the field is the dipole model: A of a contour point inline
+     * (gcp_point_A_dipole, the model's potential bit for bit) */
+    int pdipA;
     /* Guiding-centre pushers (not hybrid): the per-step state of each lane's
      * stream (by lane index li), as a struct of arrays, so that a step in
      * which nothing happens to a lane but the trapezoid sums and the
