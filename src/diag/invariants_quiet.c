@@ -78,6 +78,8 @@ void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li
  * decides whether its next step is quiet: the cadence grid times
  * t0 + k T of the samples rows and the stream contour (work when
  * tk <= t; invariants_samples.c). */
+static void hot_cadence(struct gcp_observer *o, const struct lane *L, size_t li);
+
 void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li, int slot)
 {
     gs_put(o->hot.r[slot], li, &L->s1, L->jd1);
@@ -87,6 +89,14 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
     o->hot.have[li] = L->have_s1;
     o->hot.next[li] = o->want_eq && L->eq_need_next;
     o->hot.hprev[li] = L->eq_has_prev;
+    hot_cadence(o, L, li);
+}
+
+/* What of lane li's cadence state its quiet steps read: the first grid
+ * time that asks for work (tnext), whether the stream contour's azimuth is
+ * watched (az) and the direction of its last point (cx, cy). */
+static void hot_cadence(struct gcp_observer *o, const struct lane *L, size_t li)
+{
     const double T = o->opts.sample_dt;
     const unsigned inv = o->opts.invariants;
     double tn = INFINITY;
@@ -108,8 +118,11 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * first test).  Those steps are one vectorised pass with stream_sample's
  * expressions, and |B|, p^2 and the J integrand with observe_live's
  * (bit-identical).  The sample after a minimum (twice a bounce) takes the
- * same sums here and only its e0, e1, e2 per lane (slow = 2); the others
- * (mirror points, cadence times) go through gcp_obs_stream_sample_jd.  The
+ * same sums here and only its e0, e1, e2 per lane (slow = 2), a cadence
+ * time (or an azimuth moved by pi/4) the same sums and only
+ * gcp_obs_cadence per lane (slow = 4: one step in sample_every; through
+ * the whole of stream_sample and the copies around it, ~15% of the
+ * observer); mirror points go through gcp_obs_stream_sample_jd.  The
  * pass writes every lane's sample into the ring's next slot c, quiet or
  * not (a lane that is not gets the same values from lane_to_hot), and
  * leaves the slot before the latest (e0 of a lane whose minimum waits)
@@ -155,11 +168,14 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
         const int64_t newmin = Gb < Bmin[li];
         /* calm: the trapezoid sums and the minimum are all that happens,
          * but for the sample after a minimum (after), which stream_sample
-         * would only take as e2 */
-        const int64_t calm = (int64_t)((pp1[li] > 0) == (pp[i] > 0)) & (int64_t)(tnext[li] > t) & still;
+         * would only take as e2, and the cadence's work (cad: a grid time
+         * due, or the azimuth moved), which touches neither; a lane with
+         * no sample yet (tnext = -inf) is never calm */
+        const int64_t calm = (int64_t)((pp1[li] > 0) == (pp[i] > 0)) & (int64_t)(tnext[li] > -INFINITY);
+        const int64_t cad = calm & ((int64_t)(tnext[li] <= t) | (still ^ 1));
         const int64_t after = calm & next[li] & (newmin ^ 1);
         const int64_t quiet = calm & (after ^ 1);
-        slow[i] = (calm ^ 1) | (after << 1);
+        slow[i] = (calm ^ 1) | (after << 1) | (cad << 2);
         const double Jn = J[li] + 0.5 * (jd1[li] + Gjd) * h;
         /* stream_sample's 0.5 (mu_1 + mu) h with mu_1 = mu (a guiding
          * centre's mu is constant): the same number */
@@ -200,15 +216,25 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
     size_t ns = 0;
     for (size_t i = 0; i < n; i++) {
         const int64_t v = slow[i];
-        slow[ns] = 4 * (int64_t)i + v; /* v: 1 or 2 */
+        slow[ns] = 8 * (int64_t)i + v; /* v: 1, or 2 and 4 */
         ns += v != 0;
     }
     for (size_t k = 0; k < ns; k++) {
-        const size_t i = (size_t)(slow[k] >> 2);
-        const int64_t kind = slow[k] & 3;
+        const size_t i = (size_t)(slow[k] >> 3);
+        const int64_t kind = slow[k] & 7;
         const size_t li = idx[i];
         struct lane *L = &o->lane[li];
-        if (kind == 2) {
+        if (kind & 4) {
+            /* the cadence's work of this step (stream_sample's
+             * gcp_obs_cadence, between the sums and the minimum, which it
+             * neither reads nor writes): a, the sample before, as L->s1
+             * (L->s1 is not read while the hot arrays hold the lane) */
+            const struct gsample s = gs_get(o, c, li);
+            L->s1 = gs_get(o, p, li);
+            gcp_obs_cadence(o, L, o->id0 + (int64_t)li, &s);
+            hot_cadence(o, L, li);
+        }
+        if (kind & 2) {
             /* the sample after the minimum s1 (the pass took its sums and
              * cleared next): stream_sample's e0, e1, e2 and flags from the
              * ring, the sample before s1, s1 and this one */
@@ -218,8 +244,8 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
             L->eq_Bmin = o->hot.Bmin[li];
             L->eq_has_prev = L->eq_valid = (int)o->hot.hprev[li];
             L->eq_need_next = 0;
-            continue;
         }
+        if (kind != 1) continue;
         /* the pass's values of this step, in slot c */
         const struct gsample s = gs_get(o, c, li);
         gcp_obs_hot_to_lane(o, L, li);
