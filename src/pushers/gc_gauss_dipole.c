@@ -85,7 +85,13 @@
  * canonical state (s, Q, phi', L) kept in the evolve layer's lane storage
  * between calls (so X, p_par are written, never read back: the map applied
  * is exactly the symplectic one, and L never changes), X and p_par written
- * at the end of each call for the samplers and the classification. */
+ * at the end of each call for the samplers and the classification (one
+ * vectorised loop, dgl_points).  With a sampler every step (the invariant
+ * observer) a call is one step: the tiles then stay as the last call left
+ * them (no gather) until the lanes are renumbered, and the scalar point
+ * loop and the gather, ~40% of the push, are gone (issue 12, 2048 protons
+ * of tests/bench/observer.sh: push with `mu K L` 0.112 -> 0.089 s,
+ * medians of 9 alternating; bit-identical). */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
