@@ -73,6 +73,21 @@ static inline GCP_HD void gcp_point_B_dipole(double c, double x, double y, doubl
     *bz = c5 * (r2 - 3.0 * z * z);
 }
 
+/* The dipole's vector potential (the model's gauge: A = a (-y, x, 0),
+ * a = -c/r^3, so psi = R A_phi = -c R^2/r^3 is constant on a field line),
+ * in the operations and order of fields/dipole.c's dipole_potential
+ * (bit-identical): 1 square root and 1 division. */
+static inline GCP_HD void gcp_point_A_dipole(double c, double x, double y, double z, double A[3])
+{
+    double r2 = x * x + y * y + z * z;
+    r2 = r2 > GCP_POINT_DIPOLE_R2_MIN ? r2 : GCP_POINT_DIPOLE_R2_MIN;
+    const double r = sqrt(r2), ir3 = 1.0 / (r2 * r);
+    const double a = -c * ir3;
+    A[0] = -a * y;
+    A[1] = a * x;
+    A[2] = 0.0;
+}
+
 /* The dipole's B and its gradient G_ij = dB_i/dx_j (what the guiding
  * centre needs: gcp_gc_rhs), differentiating B above:
  *   G_ij = -3 c/r^5 [ z d_ij + x_i d_jz + x_j d_iz - 5 z x_i x_j / r^2 ],

@@ -44,6 +44,7 @@
 #endif
 
 #include "gcpush/error.h"
+#include "gcpush/field_kernels.h"
 #include "gcpush/gc.h"
 #include "gcpush/invariants.h"
 #include "gcpush/kernels.h"
@@ -284,6 +285,12 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     o->stream = o->want_bounce || o->want_eq;
     if (!(opts->sample_dt > 0)) o->opts.sample_dt = 0.0;
     o->B0 = opts->B0 > 0 ? opts->B0 : gcp_observer_reference_B0(f);
+    struct gcp_point_B form;
+    if (gcp_field_point_B(f, &form) && form.form == GCP_POINT_B_DIPOLE) {
+        o->pdip = o->gc, o->pc = form.p[0];
+        /* A's gauge is the model's: the form's only where it is the dipole model */
+        o->pdipA = f->type == &gcp_field_dipole;
+    }
     *out = o;
     return 0;
 }
@@ -338,7 +345,10 @@ static void contour_A(const struct gcp_observer *o, double t, const double X[3],
                       double *psi, double *AR, double *Az)
 {
     double A[3];
-    if (gcp_gc_potential(o->f, t, X, A, NULL, NULL) || !(R > 0)) {
+    /* the dipole's closed form inline: the ~3 evaluations an equator point
+     * takes cost a quarter of the observer through the field's calls */
+    if (o->pdipA) gcp_point_A_dipole(o->pc, X[0], X[1], X[2], A);
+    if ((!o->pdipA && gcp_gc_potential(o->f, t, X, A, NULL, NULL)) || !(R > 0)) {
         *psi = *AR = *Az = NAN;
         return;
     }
@@ -648,12 +658,6 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         o->lane[li].mode = mode;
         o->g.init[li] = 0;
     }
-    if (o->stream && n && !fo_done) {
-        memset(o->fst, 0, n * sizeof(int32_t));
-        o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
-                               NULL, o->fst);
-    }
-    if (o->stream && !gc && n && !fo_done) gcp_obs_fo_block(o, b, t);
     /* dense: the lanes' indices are still 0 .. n-1 and all begun (a block
      * before its first retirement), tested as one vectorised reduction */
     int dense = n <= o->nlanes;
@@ -665,12 +669,19 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
         for (size_t i = 0; i < n; i++) off |= idx[i] ^ i, on &= act[i];
         dense = off == 0 && on;
     }
+    /* the quiet pass needs every live lane begun (always, after
+     * gcp_observer_begin), and no other source of stream samples */
+    int all = o->stream && gc && n && o->gc && !o->hybrid && !o->hot.per_lane;
+    for (size_t i = 0; all && !dense && i < n; i++)
+        all = b->index[i] < o->nlanes && o->active[b->index[i]];
+    /* B at the lanes: in the quiet pass itself for the dipole's closed form */
+    if (o->stream && n && !fo_done && !(all && o->pdip)) {
+        memset(o->fst, 0, n * sizeof(int32_t));
+        o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
+                               NULL, o->fst);
+    }
+    if (o->stream && !gc && n && !fo_done) gcp_obs_fo_block(o, b, t);
     if (o->stream && gc && n) {
-        /* the quiet pass needs every live lane begun (always, after
-         * gcp_observer_begin), and no other source of stream samples */
-        int all = o->gc && !o->hybrid && !o->hot.per_lane;
-        for (size_t i = 0; all && !dense && i < n; i++)
-            all = b->index[i] < o->nlanes && o->active[b->index[i]];
         if (all) {
             gcp_obs_stream_quiet(o, b, t, n, dense);
             /* the ring holds the last live positions (loss) */

@@ -103,6 +103,14 @@ struct gcp_observer {
     double *Vpp, *Vmu, *Vp2;  /* full orbit: p_par, mu, p^2 of that guiding centre */
     int64_t *special;         /* full orbit: the lanes a gyration starts or ends in */
     double *Gb, *Gp2, *Gjd;   /* guiding centre: |B|, p^2 and the J integrand of each lane */
+    /* the field is the dipole's closed form (field_kernels.h, constant c):
+     * the quiet pass takes B at the lanes inline (gcp_point_B_dipole, the
+     * field's own block evaluation bit for bit) instead of from Bx, By, Bz */
+    int pdip;
+    double pc;
+    /* the field is the dipole model: A of a contour point inline
+     * (gcp_point_A_dipole, the model's potential bit for bit) */
+    int pdipA;
     /* Guiding-centre pushers (not hybrid): the per-step state of each lane's
      * stream (by lane index li), as a struct of arrays, so that a step in
      * which nothing happens to a lane but the trapezoid sums and the

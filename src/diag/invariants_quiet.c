@@ -28,6 +28,7 @@
 #include <math.h>
 #include <stdint.h>
 
+#include "gcpush/field_kernels.h"
 #include "gcpush/invariants.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
@@ -77,6 +78,8 @@ void gcp_obs_hot_to_lane(const struct gcp_observer *o, struct lane *L, size_t li
  * decides whether its next step is quiet: the cadence grid times
  * t0 + k T of the samples rows and the stream contour (work when
  * tk <= t; invariants_samples.c). */
+static void hot_cadence(struct gcp_observer *o, const struct lane *L, size_t li);
+
 void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li, int slot)
 {
     gs_put(o->hot.r[slot], li, &L->s1, L->jd1);
@@ -86,6 +89,14 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
     o->hot.have[li] = L->have_s1;
     o->hot.next[li] = o->want_eq && L->eq_need_next;
     o->hot.hprev[li] = L->eq_has_prev;
+    hot_cadence(o, L, li);
+}
+
+/* What of lane li's cadence state its quiet steps read: the first grid
+ * time that asks for work (tnext), whether the stream contour's azimuth is
+ * watched (az) and the direction of its last point (cx, cy). */
+static void hot_cadence(struct gcp_observer *o, const struct lane *L, size_t li)
+{
     const double T = o->opts.sample_dt;
     const unsigned inv = o->opts.invariants;
     double tn = INFINITY;
@@ -107,8 +118,11 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * first test).  Those steps are one vectorised pass with stream_sample's
  * expressions, and |B|, p^2 and the J integrand with observe_live's
  * (bit-identical).  The sample after a minimum (twice a bounce) takes the
- * same sums here and only its e0, e1, e2 per lane (slow = 2); the others
- * (mirror points, cadence times) go through gcp_obs_stream_sample_jd.  The
+ * same sums here and only its e0, e1, e2 per lane (slow = 2), a cadence
+ * time (or an azimuth moved by pi/4) the same sums and only
+ * gcp_obs_cadence per lane (slow = 4: one step in sample_every; through
+ * the whole of stream_sample and the copies around it, ~15% of the
+ * observer); mirror points go through gcp_obs_stream_sample_jd.  The
  * pass writes every lane's sample into the ring's next slot c, quiet or
  * not (a lane that is not gets the same values from lane_to_hot), and
  * leaves the slot before the latest (e0 of a lane whose minimum waits)
@@ -117,12 +131,12 @@ void gcp_obs_lane_to_hot(struct gcp_observer *o, const struct lane *L, size_t li
  * own had ~40 and ~30. */
 static inline __attribute__((always_inline)) void
 stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, size_t n,
-                  const size_t *restrict idx)
+                  const size_t *restrict idx, int dip)
 {
     const double *restrict x = b->x, *restrict y = b->y, *restrict z = b->z;
     const double *restrict pp = b->ppar, *restrict mu = b->mu;
     const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
-    const double m = o->m;
+    const double m = o->m, pc = o->pc;
     const int p = o->hot.cur, c = (p + 1) % 3;
     /* every lane's previous sample is at the slot's time; a lane that has
      * none has tnext = -inf (lane_to_hot), so it is not calm */
@@ -138,8 +152,13 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
     GCP_OBS_IVDEP
     for (size_t i = 0; i < n; i++) {
         const size_t li = idx ? idx[i] : i;
+        /* B at the lane: the field's block evaluation's (dip: the same
+         * numbers inline, no B arrays written and read back) */
+        double bx, by, bz;
+        if (dip) gcp_point_B_dipole(pc, x[i], y[i], z[i], &bx, &by, &bz);
+        else bx = Bx[i], by = By[i], bz = Bz[i];
         /* observe_live's |B|, p^2, jd (jdot's expressions) */
-        const double Gb = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
+        const double Gb = sqrt(bx * bx + by * by + bz * bz);
         const double Gp2 = pp[i] * pp[i] + 2.0 * m * mu[i] * Gb;
         const double Gjd = pp[i] * pp[i] / sqrt(m * m + Gp2 / (GCP_C_LIGHT * GCP_C_LIGHT));
         const double dot = x[i] * cx[li] + y[i] * cy[li];
@@ -149,11 +168,14 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
         const int64_t newmin = Gb < Bmin[li];
         /* calm: the trapezoid sums and the minimum are all that happens,
          * but for the sample after a minimum (after), which stream_sample
-         * would only take as e2 */
-        const int64_t calm = (int64_t)((pp1[li] > 0) == (pp[i] > 0)) & (int64_t)(tnext[li] > t) & still;
+         * would only take as e2, and the cadence's work (cad: a grid time
+         * due, or the azimuth moved), which touches neither; a lane with
+         * no sample yet (tnext = -inf) is never calm */
+        const int64_t calm = (int64_t)((pp1[li] > 0) == (pp[i] > 0)) & (int64_t)(tnext[li] > -INFINITY);
+        const int64_t cad = calm & ((int64_t)(tnext[li] <= t) | (still ^ 1));
         const int64_t after = calm & next[li] & (newmin ^ 1);
         const int64_t quiet = calm & (after ^ 1);
-        slow[i] = (calm ^ 1) | (after << 1);
+        slow[i] = (calm ^ 1) | (after << 1) | (cad << 2);
         const double Jn = J[li] + 0.5 * (jd1[li] + Gjd) * h;
         /* stream_sample's 0.5 (mu_1 + mu) h with mu_1 = mu (a guiding
          * centre's mu is constant): the same number */
@@ -177,8 +199,13 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
 {
     const size_t *idx = b->index;
     o->hot.rt[(o->hot.cur + 1) % 3] = t;
-    if (dense) stream_quiet_pass(o, b, t, n, NULL);
-    else stream_quiet_pass(o, b, t, n, idx);
+    if (o->pdip) {
+        if (dense) stream_quiet_pass(o, b, t, n, NULL, 1);
+        else stream_quiet_pass(o, b, t, n, idx, 1);
+    } else {
+        if (dense) stream_quiet_pass(o, b, t, n, NULL, 0);
+        else stream_quiet_pass(o, b, t, n, idx, 0);
+    }
     o->hot.passes++;
     const int p = o->hot.cur, c = (p + 1) % 3;
     /* the positions of the lanes that were not quiet (~1 in 10 a step:
@@ -189,15 +216,25 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
     size_t ns = 0;
     for (size_t i = 0; i < n; i++) {
         const int64_t v = slow[i];
-        slow[ns] = 4 * (int64_t)i + v; /* v: 1 or 2 */
+        slow[ns] = 8 * (int64_t)i + v; /* v: 1, or 2 and 4 */
         ns += v != 0;
     }
     for (size_t k = 0; k < ns; k++) {
-        const size_t i = (size_t)(slow[k] >> 2);
-        const int64_t kind = slow[k] & 3;
+        const size_t i = (size_t)(slow[k] >> 3);
+        const int64_t kind = slow[k] & 7;
         const size_t li = idx[i];
         struct lane *L = &o->lane[li];
-        if (kind == 2) {
+        if (kind & 4) {
+            /* the cadence's work of this step (stream_sample's
+             * gcp_obs_cadence, between the sums and the minimum, which it
+             * neither reads nor writes): a, the sample before, as L->s1
+             * (L->s1 is not read while the hot arrays hold the lane) */
+            const struct gsample s = gs_get(o, c, li);
+            L->s1 = gs_get(o, p, li);
+            gcp_obs_cadence(o, L, o->id0 + (int64_t)li, &s);
+            hot_cadence(o, L, li);
+        }
+        if (kind & 2) {
             /* the sample after the minimum s1 (the pass took its sums and
              * cleared next): stream_sample's e0, e1, e2 and flags from the
              * ring, the sample before s1, s1 and this one */
@@ -207,8 +244,8 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
             L->eq_Bmin = o->hot.Bmin[li];
             L->eq_has_prev = L->eq_valid = (int)o->hot.hprev[li];
             L->eq_need_next = 0;
-            continue;
         }
+        if (kind != 1) continue;
         /* the pass's values of this step, in slot c */
         const struct gsample s = gs_get(o, c, li);
         gcp_obs_hot_to_lane(o, L, li);

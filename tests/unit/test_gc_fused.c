@@ -265,7 +265,8 @@ Test(gc_fused, near_block_step_every_form)
 /* The dipole's point forms against the model's own evaluation at points
  * over 1.2 .. 8 R_E and all latitudes: B and grad B of gcp_point_BG_dipole
  * bit for bit (the fused step's adiabaticity test must give the block
- * step's verdicts); |B|, C = B x H and P = B.H (H = B.grad B) of
+ * step's verdicts), A of gcp_point_A_dipole bit for bit (the invariant
+ * observer's drift contour takes it for the model's potential); |B|, C = B x H and P = B.H (H = B.grad B) of
  * gcp_point_gc_dipole against those formed from the model's B and grad B,
  * to round-off: each side is ~10 correctly rounded operations from the
  * same point, so 32 eps relative to |B| and to |B| |H|. */
@@ -289,6 +290,10 @@ Test(gc_fused, dipole_point_forms)
         cr_expect(memcmp(B, s.B, sizeof B) == 0 && memcmp(Bc, s.B, sizeof Bc) == 0,
                   "point %d: B not bit for bit", i);
         cr_expect(memcmp(G, s.gradB, sizeof G) == 0, "point %d: grad B not bit for bit", i);
+        double A[3], A0[3];
+        gcp_point_A_dipole(form.p[0], x[0], x[1], x[2], A);
+        cr_assert_eq(gcp_field_potential(f, 0.0, x, A0, NULL, NULL), 0);
+        cr_expect(memcmp(A, A0, sizeof A) == 0, "point %d: A not bit for bit", i);
         const double *b = s.B;
         const double Bm0 = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
         double H[3];
