@@ -297,7 +297,7 @@ static int dipole_point_B(const struct gcp_field *f, struct gcp_point_B *out)
 {
     const struct dipole_params *p = f->params;
     if (f->has_E || f->time_dependent || DIPOLE_R2_MIN != GCP_POINT_DIPOLE_R2_MIN) return 0;
-    *out = (struct gcp_point_B){.form = GCP_POINT_B_DIPOLE, .has_E = 0, .p = {p->c}};
+    *out = (struct gcp_point_B){.form = GCP_POINT_B_DIPOLE, .has_E = 0, .has_A = 1, .p = {p->c}};
     return 1;
 }
 

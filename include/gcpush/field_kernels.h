@@ -48,6 +48,8 @@ enum gcp_point_B_form {
 struct gcp_point_B {
     int form;       /* enum gcp_point_B_form */
     int has_E;      /* [bool] E != 0 (UNIFORM only) */
+    int has_A;      /* [bool] the model's own A is the form's closed form
+                       (gcp_point_A_dipole): its gauge, not just its curl */
     double p[6];    /* the form's parameters, above */
 };
 

@@ -288,8 +288,8 @@ int gcp_observer_create(struct gcp_observer **out, size_t nlanes, const struct g
     struct gcp_point_B form;
     if (gcp_field_point_B(f, &form) && form.form == GCP_POINT_B_DIPOLE) {
         o->pdip = o->gc, o->pc = form.p[0];
-        /* A's gauge is the model's: the form's only where it is the dipole model */
-        o->pdipA = f->type == &gcp_field_dipole;
+        /* A's gauge is the model's: the form's only where the model says so */
+        o->pdipA = form.has_A;
     }
     *out = o;
     return 0;

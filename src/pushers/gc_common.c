@@ -97,9 +97,7 @@ int gcp_gc_has_potential(const struct gcp_field *f)
      * an EQDSK or a callback field with E gives none (the grid's flux path
      * of gcp_gc_potential sets phi = 0, true only without E) */
     if (!f->has_E) return 1;
-    const struct gcp_field_type *ft = f->type;
-    return ft == &gcp_field_dipole || ft == &gcp_field_mirror || ft == &gcp_field_tokamak ||
-           ft == &gcp_field_uniform;
+    return (gcp_field_caps(f) & GCP_CAP_A) != 0;
 }
 
 int gcp_gc_energy(const struct gcp_field *f, double t, double q, double m, const double X[3],

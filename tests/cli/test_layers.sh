@@ -143,5 +143,16 @@ if [ -f "$a" ] && command -v objdump > /dev/null; then
     rm -f /tmp/layers.$$
 fi
 
-[ $fail = 0 ] && echo "ok layers (include directions, exported symbols, MPI-free public headers, no FMA contraction)"
+# 5. Code outside fields/ never asks which model it has (issue 12): it asks the
+#    capability bits and the forms a model declares, so no &gcp_field_<model>
+#    type object is named there (the callback type is a constructor's, not a test).
+models=$(sed -n 's/^extern const struct gcp_field_type \(gcp_field_[a-z_]*\);.*/\1/p' include/gcpush/field.h |
+    grep -v '^gcp_field_callback$')
+[ -n "$models" ] || say "no model type objects found in include/gcpush/field.h"
+for m in $models; do
+    hits=$(grep -rn "&$m\b" src --include='*.c' --include='*.h' 2>/dev/null)
+    [ -n "$hits" ] && say "model type test outside fields/: $(echo "$hits" | head -3 | tr '\n' ';')"
+done
+
+[ $fail = 0 ] && echo "ok layers (include directions, exported symbols, MPI-free public headers, no FMA contraction, no model-type tests)"
 exit $fail
