@@ -202,13 +202,45 @@ static void fpoint_dH(const struct fpoint *o, double dH[4])
  * tokamak (bench_flux) took a third chart evaluation for a step that the
  * linear move takes at ~1e-18. s is kept above 0 (the axis, where J = 0). */
 #define FLUX_XLIN 1e-9
+/* A Newton step e above FLUX_XLIN after one of e1 (the evaluation before,
+ * at (s1, p1) on the same eta): the step taken to second order (Newton-
+ * Chebyshev), G's second derivatives along the line from the two
+ * evaluations, G_ss = (G_s(2) - G_s(1) - G_sp dp1) / ds1 (G_sp = (k_s, h_s),
+ * G_pp = 0), and X moved with X_ss likewise.  Those are off by O(e1)
+ * (relative), the step's second-order term by O(e^2 e1), the third-order
+ * one is O(e^3): taken where e^2 e1 <= FLUX_X2 = 1e-18 (the linear move's
+ * e^2 < 1e-18 above; e.g. e1 = 1e-4, e = 1e-7) and the first step moved s
+ * by at least e1 / 10 (G_ss's difference quotient).  Why: gc-gl2's end
+ * point guess is ~1e-4 off in DIII-D (bench_flux), the second iterate 1e-7
+ * .. 1e-10, so half the steps took a third chart evaluation for it. */
+#define FLUX_X2 1e-18
+static int flux_step2(struct fpoint *o, const double z[4], const struct fpoint *q, double s,
+                      double p, double s1, double p1, double ds, double dp, double aux[2])
+{
+    const double d1s = s - s1, d1p = p - p1, ids = 1.0 / d1s;
+    const double Gss0 = (o->Gw[0][0] - q->Gw[0][0] - q->g.k_s * d1p) * ids;
+    const double Gss1 = (o->Gw[1][0] - q->Gw[1][0] - q->g.h_s * d1p) * ids;
+    /* r + G''[d, d] / 2 with d the Newton step, G''[d, d] = G_ss ds^2 + 2 G_sp ds dp */
+    const double r0 = o->P[0] - z[2] + 0.5 * Gss0 * ds * ds + o->g.k_s * ds * dp;
+    const double r1 = o->P[1] - z[3] + 0.5 * Gss1 * ds * ds + o->g.h_s * ds * dp;
+    const double det = o->Gw[0][0] * o->Gw[1][1] - o->Gw[0][1] * o->Gw[1][0];
+    const double ds2 = -(o->Gw[1][1] * r0 - o->Gw[0][1] * r1) / det;
+    const double dp2 = -(-o->Gw[1][0] * r0 + o->Gw[0][0] * r1) / det;
+    const double Rss = (o->g.R_s - q->g.R_s) * ids, Zss = (o->g.Z_s - q->g.Z_s) * ids;
+    aux[0] = s + ds2, aux[1] = p + dp2;
+    o->g.R += (o->g.R_s + 0.5 * Rss * ds2) * ds2;
+    o->g.Z += (o->g.Z_s + 0.5 * Zss * ds2) * ds2;
+    return aux[0] > 0.0 && isfinite(aux[0] + aux[1] + o->g.R + o->g.Z) ? 0 : GCP_STEP_FAILED;
+}
+
 static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
                       const double z[4], double aux[2], struct fpoint *o, int xlin)
 {
     double s = aux[0], p = aux[1];
     if (!(isfinite(s) && isfinite(p) && isfinite(z[1] + z[2] + z[3]))) return GCP_STEP_FAILED;
     const double sscale = c->pc.s_max;
-    double eprev = INFINITY;
+    double eprev = INFINITY, s1 = s, p1 = p;
+    struct fpoint prev = {0};
     for (int it = 0; it < 60; it++) {
         const int st = fpoint_eval(c, k, s, z[1], p, o);
         const double r0 = o->P[0] - z[2], r1 = o->P[1] - z[3];
@@ -222,10 +254,14 @@ static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts
             o->g.R += o->g.R_s * ds, o->g.Z += o->g.Z_s * ds;
             return aux[0] > 0.0 ? 0 : GCP_STEP_FAILED;
         }
+        if (xlin && it > 0 && !st && e * e * eprev <= FLUX_X2 &&
+            fabs(s - s1) >= 0.1 * eprev * sscale)
+            return flux_step2(o, z, &prev, s, p, s1, p1, ds, dp, aux);
         if (e < 1e-15 || (eprev < 1e-10 && e > 0.5 * eprev)) {
             aux[0] = s, aux[1] = p;
             return st;
         }
+        prev = *o, s1 = s, p1 = p;
         double sn = s + ds;
         if (!(sn > 0.0)) sn = 0.5 * s; /* never through the axis */
         if (sn > 2.0 * sscale) sn = 0.5 * (s + 2.0 * sscale);

@@ -717,6 +717,13 @@ int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char
     c->pc.what = "tabulated orthogonal (rho, eta), rho = sqrt(psi_N)";
     c->owned = v;
     c->free_ctx = view_free;
-    c->map_field3 = num_map_field3;
+    /* the jets where the table is septic and the field has B's second
+     * derivatives (a probe on the axis): elsewhere the solver's Jacobian by
+     * differences, as before */
+    struct gcp_field_sample fs;
+    double pr[6], Bd[3][6];
+    int fst;
+    if (t->spl.kind == GCP_SPL_SEPTIC && gcp_field_psi_B_RZ3(f, t->Ra, t->Za, pr, &fs, &fst, Bd) != -1)
+        c->map_field3 = num_map_field3;
     return 0;
 }

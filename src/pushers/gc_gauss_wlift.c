@@ -48,6 +48,20 @@
  * again once where the first update was large or an update contracted less
  * than 10x; an update that stops contracting after that abandons the step
  * for the inverting solver (gc_gauss.c).
+ * Charts with wlift_eval_df (the tabulated flux chart of a G-EQDSK field,
+ * canon_flux.c): F_w, F_eta analytic, from the same evaluation as the
+ * point (its jets: the table's third derivatives, B's second), at the
+ * first iterate and at every iterate after an update above GLW_DFTHR =
+ * 1e-3 of the scales or one that contracted less than 10x: a full Newton
+ * while far, the Jacobian frozen near the fixed point, no differences.
+ * Why: the predictor's first update is ~1e-2 of the scales at 25 steps a
+ * bounce, which the frozen Jacobian above took 5.7 (gc-gl2) / 5.2 (gc-gl4)
+ * iterates a step to close, the Jacobian differenced at nearly every step
+ * (two chart evaluations a stage); with it, 3.8 / 3.7 iterates, 2.2 of
+ * them with the Jacobian (bench_flux, DIII-D; a Newton with the Jacobian
+ * at every iterate took the same 3.8, and at the first only, 7.2).  An
+ * evaluation with the jets costs ~1.6 plain ones.  The fixed point and
+ * the tests are unchanged; only the iterates (so the last bits) move.
  * End point (the guess of from_canon): the Hermite polynomial in time
  * through the start point w0 and the stage points w_i with their slopes
  * dw/dt = Gw^-1 ((0, K^P) - Ge K^eta), at t = h: error O(h^(2s+1)), so the
@@ -65,9 +79,7 @@
 
 #define GLW_TOL 1e-15
 #define GLW_FD 1e-7
-#ifndef GLW_DFTHR
-#define GLW_DFTHR 1e-3
-#endif
+#define GLW_DFTHR 1e-3 /* see the header: above, the analytic Jacobian again */
 /* The round-off floor of the updates: the chart residual r carries the
  * rounding of q A_eta + p_par h_eta (~1e2 times p_par's ulp, ~1e-14 of the
  * scale); measured below 1e-13 in the tokamak and DIII-D. */
@@ -198,8 +210,9 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
     int refreshed = 0;
     for (int it = 0; it < GLW_MAXIT; it++) {
         double eta[GL_SMAX], r[GL_SMAX][2];
-        /* the analytic Jacobian, where the chart has it: at every iterate
-         * whose last update was above GLW_DFTHR (a full Newton there) */
+        /* the analytic Jacobian, where the chart has it: at the first
+         * iterate, after an update above GLW_DFTHR (a full Newton there) or
+         * one that contracted less than 10x (see the header) */
         const int adf = C->chart.wlift_eval_df &&
                         (it == 0 || nprev > GLW_DFTHR || (it > 1 && thprev > 0.1));
         for (int i = 0; i < s; i++) {
@@ -230,6 +243,7 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
          * large (a predictor far off: DF taken there is off too) or an update
          * contracted less than 10x */
         else if (C->chart.wlift_eval_df) {
+            /* frozen: the last analytic one */
         } else if ((it == 0 && !stale) ||
                  (!refreshed && it > 0 && (it == 1 ? nprev > 1e-2 : thprev > 0.1))) {
             refreshed = it > 0;
