@@ -99,7 +99,8 @@ static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, stru
     struct gcp_polchart_pt g;
     struct gcp_field_sample fs = {.need = GCP_NEED_B | GCP_NEED_GRADB};
     int st;
-    struct flux_d3 d3 = {.ok = 0};
+    struct flux_d3 d3; /* read only with j */
+    d3.ok = 0;
     if (j && c->map_field3) {
         st = c->map_field3(c->pc.ctx, s, eta, &g, &fs, &d3);
     } else if (c->pc.map_field) {
