@@ -610,6 +610,86 @@ int gcp_eqdsk_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out
     return *fst;
 }
 
+/* c w / R with w = (w, w_R, w_Z, w_RR, w_RZ, w_ZZ) and its R, Z derivatives
+ * to second order (iR = 1/R), in the same layout. */
+static void axi_over_R(double c, const double w[6], double iR, double o[6])
+{
+    o[0] = c * w[0] * iR;
+    o[1] = c * (w[1] - w[0] * iR) * iR;
+    o[2] = c * w[2] * iR;
+    o[3] = c * (w[3] - 2.0 * (w[1] - w[0] * iR) * iR) * iR;
+    o[4] = c * (w[4] - w[2] * iR) * iR;
+    o[5] = c * w[5] * iR;
+}
+
+/* gcp_eqdsk_psi_B_RZ (the same numbers in out and *s) and the second-order
+ * Taylor data of B in the R-Z plane at phi = 0: Bd[i] = (B_i, dB_i/dR,
+ * dB_i/dZ, d2B_i/dR2, d2B_i/dRdZ, d2B_i/dZ2) for (B_R, B_phi, B_Z), from
+ * psi's third derivatives and F''(psi): B_R = -s_pol psi_Z / R, B_phi =
+ * s_tor F(psi) / R, B_Z = s_pol psi_R / R (file's psi).  For the analytic
+ * Jacobian of the flux chart's collocation solve (src/pushers/canon_flux.c);
+ * fields/flux_priv.h's dispatch, here as only this model has it.  Returns
+ * -1 without evaluating where it does not apply (another model, a quintic
+ * psi, R below Rmin): the caller takes gcp_field_psi_B_RZ. */
+int gcp_field_psi_B_RZ3(const struct gcp_field *f, double R, double Z, double out[6],
+                        struct gcp_field_sample *s, int *fst, double Bd[3][6])
+{
+    if (f->type != &gcp_field_eqdsk) return -1;
+    const struct eqdsk_params *e = f->params;
+    double c, sn;
+    const double Rf = gcp_axi_R(R, 0.0, e->Rmin, &c, &sn);
+    if (Rf != R || e->psi.kind != GCP_SPL_SEPTIC || e->prof.kind != GCP_SPL_SEPTIC) return -1;
+    const double p[2] = {R, Z};
+    struct gcp_spl_out o;
+    double w[2][8], dw[2][8], ddw[2][8], dddw[2][8], d3[4];
+    size_t base = 0, off;
+    double t;
+    int outside = 0;
+    for (int a = 0; a < 2; a++) {
+        outside |= gcp_spl_cell(&e->psi, a, p[a], &off, &t);
+        base += off;
+        gcp_spl_w7(t, e->psi.inv_h[a], 2, w[a], dw[a], ddw[a]);
+        gcp_spl_w7_3(t, e->psi.inv_h[a], dddw[a]);
+    }
+    gcp_spl2_eval8_3(e->psi.coef[0] + base, e->psi.stride[1], w[0], dw[0], ddw[0], dddw[0], w[1],
+                     dw[1], ddw[1], dddw[1], &o, d3);
+    psi_out(e->s_pol, &o, out);
+    s->need = GCP_NEED_B | GCP_NEED_GRADB;
+    eqdsk_B_of(e, &o, R, Z, c, sn, 1, s);
+    *fst = outside ? GCP_LEFT_GRID : 0;
+    /* F(psi) with dF/dpsi, d2F/dpsi2 (file's psi), the edge value outside */
+    double F = e->F_edge, F1 = 0.0, F2 = 0.0;
+    const double psiN = (o.f - e->info.simag) / e->dpsi;
+    if (!(psiN > 1.0 || Z < e->info.zbmin || Z > e->info.zbmax)) {
+        /* eqdsk_prof7 with the second derivative (the same cell and weights) */
+        const struct gcp_spl *sp = &e->prof;
+        const double sc = (double)(e->info.nw - 1), x = sp->x0[0] + psiN * sc * sp->h[0];
+        size_t off;
+        double tt, w[8], dw[8], ddw[8], f0 = 0, f1 = 0, f2 = 0;
+        gcp_spl_cell(sp, 0, x, &off, &tt);
+        gcp_spl_w7(tt, sp->inv_h[0], 2, w, dw, ddw);
+        const double *co = sp->coef[0] + off, c0 = co[0];
+        for (int a = 0; a < 8; a++) {
+            const double ca = co[a] - c0;
+            f0 += w[a] * ca, f1 += dw[a] * ca, f2 += ddw[a] * ca;
+        }
+        const double du = sc * sp->h[0] / e->dpsi; /* d(x)/d(psi) */
+        F = c0 + f0;
+        F1 = f1 * du;
+        F2 = f2 * du * du;
+    }
+    const double pR = o.d[0], pZ = o.d[1];
+    const double wR[6] = {o.d[1], o.dd[0][1], o.dd[1][1], d3[1], d3[2], d3[3]}; /* psi_Z */
+    const double wZ[6] = {o.d[0], o.dd[0][0], o.dd[0][1], d3[0], d3[1], d3[2]}; /* psi_R */
+    const double wF[6] = {F, F1 * pR, F1 * pZ, F2 * pR * pR + F1 * o.dd[0][0],
+                          F2 * pR * pZ + F1 * o.dd[0][1], F2 * pZ * pZ + F1 * o.dd[1][1]};
+    const double iR = 1.0 / R;
+    axi_over_R(-e->s_pol, wR, iR, Bd[0]);
+    axi_over_R(e->s_tor, wF, iR, Bd[1]);
+    axi_over_R(e->s_pol, wZ, iR, Bd[2]);
+    return *fst;
+}
+
 /* The file's magnetic axis and boundary flux (rmaxis, zmaxis, sibry). */
 int gcp_eqdsk_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe)
 {

@@ -25,6 +25,13 @@ int gcp_field_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6
  * Returns psi's status, *fst the field's. */
 int gcp_field_psi_B_RZ(const struct gcp_field *f, double R, double Z, double out[6],
                        struct gcp_field_sample *s, int *fst);
+/* gcp_field_psi_B_RZ (the same numbers) and B's second-order Taylor data
+ * in the R-Z plane at phi = 0: Bd[i] = (B_i, d/dR, d/dZ, d2/dR2, d2/dRdZ,
+ * d2/dZ2) of (B_R, B_phi, B_Z) (the flux chart's analytic Jacobian).
+ * Returns -1, evaluating nothing, where the model has none (only G-EQDSK's
+ * biseptic psi has: fields/eqdsk.c, which holds this dispatch). */
+int gcp_field_psi_B_RZ3(const struct gcp_field *f, double R, double Z, double out[6],
+                        struct gcp_field_sample *s, int *fst, double Bd[3][6]);
 
 /* k such that the model's psi is C^k (its derivatives up to k continuous):
  * 2 for a grid's bicubic psi, 6 for G-EQDSK's septic spline,

@@ -118,6 +118,26 @@ GCP_SPL_INLINE void gcp_spl_w7(double t, double ih, int order, double *w, double
     }
 }
 
+/* The septic pieces' third derivatives (times 1/h^3): P3[k] = (k + 1) P2[k + 1]
+ * of gcp_spl_w7's tables.  For the analytic Jacobian of the flux chart's
+ * collocation solve (src/pushers/canon_flux.c), which needs the table's
+ * third derivatives. */
+GCP_SPL_INLINE void gcp_spl_w7_3(double t, double ih, double *dddw)
+{
+    static const double P3[5][8] = {
+        {-210, -1680, 3990, 0, -3990, 1680, 210, 0},
+        {840, 0, -7560, 13440, -7560, 0, 840, 0},
+        {-1260, 5040, -6300, 0, 6300, -5040, 1260, 0},
+        {840, -5040, 12600, -16800, 12600, -5040, 840, 0},
+        {-210, 1470, -4410, 7350, -7350, 4410, -1470, 210}};
+    const double c3 = ih * ih * ih / 5040.0;
+    double v[8];
+    for (int m = 0; m < 8; m++) v[m] = P3[4][m];
+    for (int k = 3; k >= 0; k--)
+        for (int m = 0; m < 8; m++) v[m] = v[m] * t + P3[k][m];
+    for (int m = 0; m < 8; m++) dddw[m] = c3 * v[m];
+}
+
 /* The sums run over the coefficients less the stencil's first one, c0
  * (exact: the weights sum to 1, their derivatives to 0), so that their
  * round-off is eps times the variation of the field over the stencil, not
@@ -235,6 +255,50 @@ GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0
     o->dd[0][0] = d00;
     o->dd[0][1] = o->dd[1][0] = d01;
     o->dd[1][1] = d11;
+}
+
+/* gcp_spl2_eval8 at order 2 (the same sums: the same numbers) and the third
+ * derivatives ddd = (f_000, f_001, f_011, f_111) from the third-derivative
+ * weights dddw0, dddw1 (gcp_spl_w7_3). */
+GCP_SPL_INLINE void gcp_spl2_eval8_3(const double *co, size_t s1, const double *w0,
+                                     const double *dw0, const double *ddw0, const double *dddw0,
+                                     const double *w1, const double *dw1, const double *ddw1,
+                                     const double *dddw1, struct gcp_spl_out *o, double ddd[4])
+{
+    const double c0 = co[0];
+    double u[8] = {0}, u1[8] = {0}, u11[8] = {0}, u111[8] = {0};
+    for (int b = 0; b < 8; b++) {
+        const double *rr = co + b * s1;
+        const double w = w1[b], dw = dw1[b], ddw = ddw1[b], dddw = dddw1[b];
+        for (int a = 0; a < 8; a++) {
+            const double r = rr[a] - c0;
+            u[a] += w * r;
+            u1[a] += dw * r;
+            u11[a] += ddw * r;
+            u111[a] += dddw * r;
+        }
+    }
+    double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
+    double d000 = 0, d001 = 0, d011 = 0, d111 = 0;
+    for (int a = 0; a < 8; a++) {
+        f += w0[a] * u[a];
+        d0 += dw0[a] * u[a];
+        d1 += w0[a] * u1[a];
+        d00 += ddw0[a] * u[a];
+        d01 += dw0[a] * u1[a];
+        d11 += w0[a] * u11[a];
+        d000 += dddw0[a] * u[a];
+        d001 += ddw0[a] * u1[a];
+        d011 += dw0[a] * u11[a];
+        d111 += w0[a] * u111[a];
+    }
+    o->f = c0 + f;
+    o->d[0] = d0;
+    o->d[1] = d1;
+    o->dd[0][0] = d00;
+    o->dd[0][1] = o->dd[1][0] = d01;
+    o->dd[1][1] = d11;
+    ddd[0] = d000, ddd[1] = d001, ddd[2] = d011, ddd[3] = d111;
 }
 
 #endif

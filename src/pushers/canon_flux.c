@@ -88,12 +88,22 @@ static double dir_deriv(const double G[3][3], const double b[3], double Bm, doub
     return dB;
 }
 
-static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o)
+/* The geometry at (s, eta) into o; with j (a chart with map_field3), the
+ * second-order jets of the Jacobian too (j->ok = 0 where there are none). */
+struct fjets;
+static void fjets_of(const struct gcp_polchart_pt *g, const struct flux_d3 *d3, struct fjets *j);
+
+static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o,
+                      struct fjets *j)
 {
     struct gcp_polchart_pt g;
     struct gcp_field_sample fs = {.need = GCP_NEED_B | GCP_NEED_GRADB};
     int st;
-    if (c->pc.map_field) {
+    struct flux_d3 d3; /* read only with j */
+    d3.ok = 0;
+    if (j && c->map_field3) {
+        st = c->map_field3(c->pc.ctx, s, eta, &g, &fs, &d3);
+    } else if (c->pc.map_field) {
         st = c->pc.map_field(c->pc.ctx, s, eta, &g, &fs);
     } else {
         st = c->pc.map(c->pc.ctx, s, eta, &g);
@@ -119,6 +129,7 @@ static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, stru
     o->h_s = dbs[0] * g.R_e + dbs[2] * g.Z_e + b[0] * g.R_se + b[2] * g.Z_se;
     o->h_e = dbe[0] * g.R_e + dbe[2] * g.Z_e + b[0] * g.R_ee + b[2] * g.Z_ee;
     o->h_res = b[0] * g.R_s + b[2] * g.Z_s;
+    if (j) fjets_of(&g, &d3, j);
     return st;
 }
 
@@ -147,7 +158,7 @@ static void fpoint_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
 static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k, double s,
                        double eta, double p, struct fpoint *o)
 {
-    const int st = fgeom_eval(c, s, eta, &o->g);
+    const int st = fgeom_eval(c, s, eta, &o->g, NULL);
     if (st == GCP_STEP_FAILED) return st;
     fpoint_at(k, p, o);
     return st;
@@ -192,13 +203,45 @@ static void fpoint_dH(const struct fpoint *o, double dH[4])
  * tokamak (bench_flux) took a third chart evaluation for a step that the
  * linear move takes at ~1e-18. s is kept above 0 (the axis, where J = 0). */
 #define FLUX_XLIN 1e-9
+/* A Newton step e above FLUX_XLIN after one of e1 (the evaluation before,
+ * at (s1, p1) on the same eta): the step taken to second order (Newton-
+ * Chebyshev), G's second derivatives along the line from the two
+ * evaluations, G_ss = (G_s(2) - G_s(1) - G_sp dp1) / ds1 (G_sp = (k_s, h_s),
+ * G_pp = 0), and X moved with X_ss likewise.  Those are off by O(e1)
+ * (relative), the step's second-order term by O(e^2 e1), the third-order
+ * one is O(e^3): taken where e^2 e1 <= FLUX_X2 = 1e-18 (the linear move's
+ * e^2 < 1e-18 above; e.g. e1 = 1e-4, e = 1e-7) and the first step moved s
+ * by at least e1 / 10 (G_ss's difference quotient).  Why: gc-gl2's end
+ * point guess is ~1e-4 off in DIII-D (bench_flux), the second iterate 1e-7
+ * .. 1e-10, so half the steps took a third chart evaluation for it. */
+#define FLUX_X2 1e-18
+static int flux_step2(struct fpoint *o, const double z[4], const struct fpoint *q, double s,
+                      double p, double s1, double p1, double ds, double dp, double aux[2])
+{
+    const double d1s = s - s1, d1p = p - p1, ids = 1.0 / d1s;
+    const double Gss0 = (o->Gw[0][0] - q->Gw[0][0] - q->g.k_s * d1p) * ids;
+    const double Gss1 = (o->Gw[1][0] - q->Gw[1][0] - q->g.h_s * d1p) * ids;
+    /* r + G''[d, d] / 2 with d the Newton step, G''[d, d] = G_ss ds^2 + 2 G_sp ds dp */
+    const double r0 = o->P[0] - z[2] + 0.5 * Gss0 * ds * ds + o->g.k_s * ds * dp;
+    const double r1 = o->P[1] - z[3] + 0.5 * Gss1 * ds * ds + o->g.h_s * ds * dp;
+    const double det = o->Gw[0][0] * o->Gw[1][1] - o->Gw[0][1] * o->Gw[1][0];
+    const double ds2 = -(o->Gw[1][1] * r0 - o->Gw[0][1] * r1) / det;
+    const double dp2 = -(-o->Gw[1][0] * r0 + o->Gw[0][0] * r1) / det;
+    const double Rss = (o->g.R_s - q->g.R_s) * ids, Zss = (o->g.Z_s - q->g.Z_s) * ids;
+    aux[0] = s + ds2, aux[1] = p + dp2;
+    o->g.R += (o->g.R_s + 0.5 * Rss * ds2) * ds2;
+    o->g.Z += (o->g.Z_s + 0.5 * Zss * ds2) * ds2;
+    return aux[0] > 0.0 && isfinite(aux[0] + aux[1] + o->g.R + o->g.Z) ? 0 : GCP_STEP_FAILED;
+}
+
 static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
                       const double z[4], double aux[2], struct fpoint *o, int xlin)
 {
     double s = aux[0], p = aux[1];
     if (!(isfinite(s) && isfinite(p) && isfinite(z[1] + z[2] + z[3]))) return GCP_STEP_FAILED;
     const double sscale = c->pc.s_max;
-    double eprev = INFINITY;
+    double eprev = INFINITY, s1 = s, p1 = p;
+    struct fpoint prev = {0};
     for (int it = 0; it < 60; it++) {
         const int st = fpoint_eval(c, k, s, z[1], p, o);
         const double r0 = o->P[0] - z[2], r1 = o->P[1] - z[3];
@@ -212,10 +255,14 @@ static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts
             o->g.R += o->g.R_s * ds, o->g.Z += o->g.Z_s * ds;
             return aux[0] > 0.0 ? 0 : GCP_STEP_FAILED;
         }
+        if (xlin && it > 0 && !st && e * e * eprev <= FLUX_X2 &&
+            fabs(s - s1) >= 0.1 * eprev * sscale)
+            return flux_step2(o, z, &prev, s, p, s1, p1, ds, dp, aux);
         if (e < 1e-15 || (eprev < 1e-10 && e > 0.5 * eprev)) {
             aux[0] = s, aux[1] = p;
             return st;
         }
+        prev = *o, s1 = s, p1 = p;
         double sn = s + ds;
         if (!(sn > 0.0)) sn = 0.5 * s; /* never through the axis */
         if (sn > 2.0 * sscale) sn = 0.5 * (s + 2.0 * sscale);
@@ -315,7 +362,7 @@ static int flux_wlift_eval(const struct gcp_canon_chart *cc, const struct gcp_gc
     if (same) {
         memcpy(&o.g, same->own, sizeof o.g);
     } else {
-        const int st = fgeom_eval(c, w[0], eta, &o.g);
+        const int st = fgeom_eval(c, w[0], eta, &o.g, NULL);
         if (st) return st;
         memcpy(out->own, &o.g, sizeof o.g);
     }
@@ -329,6 +376,173 @@ static int flux_wlift_eval(const struct gcp_canon_chart *cc, const struct gcp_gc
     out->wscale[0] = c->pc.s_max;
     out->wscale[1] = o.pscale;
     return isfinite(out->H + out->dH[1] + out->dH[2] + out->dH[3]) ? 0 : GCP_NONFINITE;
+}
+
+/* ---- the analytic Jacobian of the collocation solve ----------------------
+ * gc_gauss_wlift.c's Newton needs dF/dw (fixed eta) and dF/deta (fixed w) of
+ * F = (dH/dP_eta, -dH/deta) = (l1, -(H_eta - l . G_eta)), l = Gw^-T H_w
+ * (fpoint_dH): second derivatives of H, so the second derivatives in
+ * (s, eta) of psi, k, A_eta, h and |B| at X(s, eta).  They are carried as
+ * second-order jets (value and derivatives to order 2 in (s, eta), "j2"),
+ * composed from the chart's X to third order (h = b . X_eta), A_eta to
+ * second, psi and B in (R, Z) to second (struct flux_d3); then F's formula
+ * is run on first-order jets in (s, eta, p_par) ("j1").  The derivatives
+ * are exact (of the chart's own H), so the Newton is a full one; before,
+ * forward differences (two more maps of the chart and field evaluations
+ * a stage).  F itself is fgeom's, unchanged. */
+struct j2 {
+    double v, s, e, ss, se, ee;
+};
+struct j1 {
+    double v, s, e, p;
+};
+
+static struct j2 j2_add(struct j2 a, struct j2 b)
+{
+    return (struct j2){a.v + b.v, a.s + b.s, a.e + b.e, a.ss + b.ss, a.se + b.se, a.ee + b.ee};
+}
+
+static struct j2 j2_mul(struct j2 a, struct j2 b)
+{
+    return (struct j2){a.v * b.v,
+                       a.s * b.v + a.v * b.s,
+                       a.e * b.v + a.v * b.e,
+                       a.ss * b.v + 2.0 * a.s * b.s + a.v * b.ss,
+                       a.se * b.v + a.s * b.e + a.e * b.s + a.v * b.se,
+                       a.ee * b.v + 2.0 * a.e * b.e + a.v * b.ee};
+}
+
+/* phi(a) from phi's value and first two derivatives at a.v */
+static struct j2 j2_fn(struct j2 a, double f0, double f1, double f2)
+{
+    return (struct j2){f0,
+                       f1 * a.s,
+                       f1 * a.e,
+                       f2 * a.s * a.s + f1 * a.ss,
+                       f2 * a.s * a.e + f1 * a.se,
+                       f2 * a.e * a.e + f1 * a.ee};
+}
+
+/* g(R, Z) along the chart, g = (g, g_R, g_Z, g_RR, g_RZ, g_ZZ) at X */
+static struct j2 j2_field(const double g[6], const struct j2 *R, const struct j2 *Z)
+{
+    return (struct j2){
+        g[0],
+        g[1] * R->s + g[2] * Z->s,
+        g[1] * R->e + g[2] * Z->e,
+        g[3] * R->s * R->s + 2.0 * g[4] * R->s * Z->s + g[5] * Z->s * Z->s + g[1] * R->ss +
+            g[2] * Z->ss,
+        g[3] * R->s * R->e + g[4] * (R->s * Z->e + R->e * Z->s) + g[5] * Z->s * Z->e +
+            g[1] * R->se + g[2] * Z->se,
+        g[3] * R->e * R->e + 2.0 * g[4] * R->e * Z->e + g[5] * Z->e * Z->e + g[1] * R->ee +
+            g[2] * Z->ee};
+}
+
+struct fjets {
+    int ok;
+    struct j2 psi, k, A, h, Bm;
+};
+
+static void fjets_of(const struct gcp_polchart_pt *g, const struct flux_d3 *d3, struct fjets *j)
+{
+    j->ok = d3->ok;
+    if (!d3->ok) return;
+    const struct j2 R = {g->R, g->R_s, g->R_e, g->R_ss, g->R_se, g->R_ee};
+    const struct j2 Z = {g->Z, g->Z_s, g->Z_e, g->Z_ss, g->Z_se, g->Z_ee};
+    const struct j2 Re = {g->R_e, g->R_se, g->R_ee, d3->R3[1], d3->R3[2], d3->R3[3]};
+    const struct j2 Ze = {g->Z_e, g->Z_se, g->Z_ee, d3->Z3[1], d3->Z3[2], d3->Z3[3]};
+    j->psi = j2_field(d3->ps, &R, &Z);
+    j->A = (struct j2){g->A, g->A_s, g->A_e, d3->A2[0], d3->A2[1], d3->A2[2]};
+    struct j2 B[3], B2 = {0, 0, 0, 0, 0, 0};
+    for (int i = 0; i < 3; i++) {
+        B[i] = j2_field(d3->Bd[i], &R, &Z);
+        B2 = j2_add(B2, j2_mul(B[i], B[i]));
+    }
+    const double Bm = sqrt(B2.v);
+    j->Bm = j2_fn(B2, Bm, 0.5 / Bm, -0.25 / (Bm * B2.v));
+    const struct j2 iB = j2_fn(j->Bm, 1.0 / Bm, -1.0 / (Bm * Bm), 2.0 / (Bm * Bm * Bm));
+    j->k = j2_mul(R, j2_mul(B[1], iB));
+    j->h = j2_mul(j2_add(j2_mul(B[0], Re), j2_mul(B[2], Ze)), iB);
+}
+
+static struct j1 j1_add(struct j1 a, struct j1 b)
+{
+    return (struct j1){a.v + b.v, a.s + b.s, a.e + b.e, a.p + b.p};
+}
+
+static struct j1 j1_sub(struct j1 a, struct j1 b)
+{
+    return (struct j1){a.v - b.v, a.s - b.s, a.e - b.e, a.p - b.p};
+}
+
+static struct j1 j1_mul(struct j1 a, struct j1 b)
+{
+    return (struct j1){a.v * b.v, a.s * b.v + a.v * b.s, a.e * b.v + a.v * b.e,
+                       a.p * b.v + a.v * b.p};
+}
+
+static struct j1 j1_div(struct j1 a, struct j1 b)
+{
+    const double q = a.v / b.v, ib = 1.0 / b.v;
+    return (struct j1){q, (a.s - q * b.s) * ib, (a.e - q * b.e) * ib, (a.p - q * b.p) * ib};
+}
+
+static struct j1 j1_scale(double c, struct j1 a) { return (struct j1){c * a.v, c * a.s, c * a.e, c * a.p}; }
+
+/* a jet's value, its s- and eta-derivative, as first-order jets in (s, eta, p) */
+static struct j1 j1_v(struct j2 a) { return (struct j1){a.v, a.s, a.e, 0.0}; }
+static struct j1 j1_s(struct j2 a) { return (struct j1){a.s, a.ss, a.se, 0.0}; }
+static struct j1 j1_e(struct j2 a) { return (struct j1){a.e, a.se, a.ee, 0.0}; }
+
+/* Fw, Fe at p_par = p from the jets (fpoint_at and fpoint_dH on j1). */
+static void fjets_dF(const struct fjets *j, const struct gcp_gc_consts *k, double p,
+                     double Fw[2][2], double Fe[2])
+{
+    const struct j1 P = {p, 0.0, 0.0, 1.0};
+    const double q = k->q, mc = k->m * GCP_C_LIGHT;
+    const struct j1 Gw00 = j1_add(j1_scale(q, j1_s(j->psi)), j1_mul(P, j1_s(j->k)));
+    const struct j1 Gw01 = j1_v(j->k);
+    const struct j1 Gw10 = j1_add(j1_scale(q, j1_s(j->A)), j1_mul(P, j1_s(j->h)));
+    const struct j1 Gw11 = j1_v(j->h);
+    const struct j1 Ge0 = j1_add(j1_scale(q, j1_e(j->psi)), j1_mul(P, j1_e(j->k)));
+    const struct j1 Ge1 = j1_add(j1_scale(q, j1_e(j->A)), j1_mul(P, j1_e(j->h)));
+    /* gamma^2 = 1 + (p/mc)^2 + 2 mu |B| / (m c^2) */
+    const struct j1 g2 =
+        j1_add(j1_scale(1.0 / (mc * mc), j1_mul(P, P)),
+               j1_scale(2.0 * k->mu / (mc * GCP_C_LIGHT), j1_v(j->Bm)));
+    const double gam = sqrt(1.0 + g2.v);
+    const struct j1 iG = {1.0 / gam, -0.5 * g2.s / (gam * gam * gam),
+                          -0.5 * g2.e / (gam * gam * gam), -0.5 * g2.p / (gam * gam * gam)};
+    const struct j1 HB = j1_scale(k->mu, iG);
+    const struct j1 Hw0 = j1_mul(HB, j1_s(j->Bm));
+    const struct j1 Hw1 = j1_scale(1.0 / k->m, j1_mul(P, iG));
+    const struct j1 He = j1_mul(HB, j1_e(j->Bm));
+    const struct j1 det = j1_sub(j1_mul(Gw00, Gw11), j1_mul(Gw01, Gw10));
+    const struct j1 l0 = j1_div(j1_sub(j1_mul(Gw11, Hw0), j1_mul(Gw10, Hw1)), det);
+    const struct j1 l1 = j1_div(j1_sub(j1_mul(Gw00, Hw1), j1_mul(Gw01, Hw0)), det);
+    const struct j1 F1 = j1_sub(j1_add(j1_mul(l0, Ge0), j1_mul(l1, Ge1)), He);
+    Fw[0][0] = l1.s, Fw[0][1] = l1.p, Fe[0] = l1.e;
+    Fw[1][0] = F1.s, Fw[1][1] = F1.p, Fe[1] = F1.e;
+}
+
+static int flux_wlift_eval_df(const struct gcp_canon_chart *cc, const struct gcp_gc_consts *k,
+                              double eta, const double w[2], struct gcp_canon_wpoint *out,
+                              double Fw[2][2], double Fe[2], int *have)
+{
+    const struct gcp_flux_chart *c = cc->data;
+    *have = 0;
+    if (!(w[0] > 0.0) || !isfinite(w[1]) || !isfinite(eta)) return GCP_STEP_FAILED;
+    struct fgeom g;
+    struct fjets j;
+    const int st = fgeom_eval(c, w[0], eta, &g, &j);
+    if (st) return st;
+    struct gcp_canon_wpoint same;
+    memcpy(same.own, &g, sizeof g);
+    const int r = flux_wlift_eval(cc, k, eta, w, &same, out);
+    if (r || !j.ok) return r;
+    fjets_dF(&j, k, w[1], Fw, Fe);
+    *have = isfinite(Fw[0][0] + Fw[0][1] + Fw[1][0] + Fw[1][1] + Fe[0] + Fe[1]);
+    return 0;
 }
 
 static void flux_destroy(void *data)
@@ -373,5 +587,6 @@ int gcp_canon_chart_flux_create(const struct gcp_field *f, struct gcp_canon_char
     out->destroy = flux_destroy;
     out->field_strength = flux_field_strength;
     out->wlift_eval = flux_wlift_eval;
+    if (c->map_field3) out->wlift_eval_df = flux_wlift_eval_df;
     return 0;
 }

@@ -99,9 +99,10 @@ static double wrap_eta(double eta)
  * kind and the stencil's size read at run time, a call a component) a
  * step of gc-gl2 / gc-gl4 took 11% / 19% more CPU there with the quintic
  * table (6.4 / 10.0 us). */
-static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl_out o[3])
+static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl_out o[3],
+                     struct flux_d3 *d3)
 {
-    double w[2][8], dw[2][8], ddw[2][8];
+    double w[2][8], dw[2][8], ddw[2][8], dddw[2][8];
     size_t base = 0;
     const int sept = sp->kind == GCP_SPL_SEPTIC;
     for (int a = 0; a < 2; a++) {
@@ -113,10 +114,14 @@ static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl
             gcp_spl_w7(t, sp->inv_h[a], 2, w[a], dw[a], ddw[a]);
         else
             gcp_spl_w5(t, sp->inv_h[a], 2, w[a], dw[a], ddw[a]);
+        if (d3) gcp_spl_w7_3(t, sp->inv_h[a], dddw[a]);
     }
     const size_t s1 = sp->stride[1];
     for (int c = 0; c < 3; c++) {
-        if (sept)
+        if (d3 && c < 2) /* septic: R and Z with their third derivatives */
+            gcp_spl2_eval8_3(sp->coef[c] + base, s1, w[0], dw[0], ddw[0], dddw[0], w[1], dw[1],
+                             ddw[1], dddw[1], &o[c], c ? d3->Z3 : d3->R3);
+        else if (sept)
             gcp_spl2_eval8(sp->coef[c] + base, s1, w[0], dw[0], ddw[0], w[1], dw[1], ddw[1], 2,
                            &o[c]);
         else
@@ -127,12 +132,12 @@ static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl
 
 /* The table's part of the map (R, Z, A_eta and their derivatives). */
 static void num_map_table(const struct numchart *n, double s, double eta,
-                          struct gcp_polchart_pt *pt)
+                          struct gcp_polchart_pt *pt, struct flux_d3 *d3)
 {
     const double x[2] = {s, wrap_eta(eta)};
     struct gcp_spl_out o[3];
     if ((n->spl.kind == GCP_SPL_QUINTIC || n->spl.kind == GCP_SPL_SEPTIC) && n->spl.nd == 2) {
-        num_spl3(&n->spl, x, o);
+        num_spl3(&n->spl, x, o, d3);
     } else {
         struct gcp_spl_loc loc;
         gcp_spl_locate(&n->spl, x, 2, &loc);
@@ -144,6 +149,7 @@ static void num_map_table(const struct numchart *n, double s, double eta,
     pt->A_s = o[2].d[0], pt->A_e = o[2].d[1];
     pt->R_ss = o[0].dd[0][0], pt->R_se = o[0].dd[0][1], pt->R_ee = o[0].dd[1][1];
     pt->Z_ss = o[1].dd[0][0], pt->Z_se = o[1].dd[0][1], pt->Z_ee = o[1].dd[1][1];
+    if (d3) d3->A2[0] = o[2].dd[0][0], d3->A2[1] = o[2].dd[0][1], d3->A2[2] = o[2].dd[1][1];
 }
 
 /* psi's part, from psi and its R, Z derivatives at the point (ps), and the
@@ -161,7 +167,7 @@ static int num_map_psi(const struct numchart *n, double s, const double ps[6], i
 static int num_map(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt)
 {
     const struct numview *v = ctx;
-    num_map_table(v->t, s, eta, pt);
+    num_map_table(v->t, s, eta, pt, NULL);
     double ps[6];
     const int st = gcp_field_psi_RZ(v->f, pt->R, pt->Z, ps);
     return num_map_psi(v->t, s, ps, st, pt);
@@ -174,11 +180,28 @@ static int num_map_field(const void *ctx, double s, double eta, struct gcp_polch
                          struct gcp_field_sample *fs)
 {
     const struct numview *v = ctx;
-    num_map_table(v->t, s, eta, pt);
+    num_map_table(v->t, s, eta, pt, NULL);
     double ps[6];
     int fst;
     const int st = gcp_field_psi_B_RZ(v->f, pt->R, pt->Z, ps, fs, &fst);
     const int mst = num_map_psi(v->t, s, ps, st, pt);
+    return mst ? mst : fst;
+}
+
+/* num_map_field (the same numbers) with d3 (canon_flux_priv.h), where the
+ * table is septic and the field has B's second derivatives. */
+static int num_map_field3(const void *ctx, double s, double eta, struct gcp_polchart_pt *pt,
+                          struct gcp_field_sample *fs, struct flux_d3 *d3)
+{
+    const struct numview *v = ctx;
+    d3->ok = v->t->spl.kind == GCP_SPL_SEPTIC && v->t->spl.nd == 2;
+    num_map_table(v->t, s, eta, pt, d3->ok ? d3 : NULL);
+    int fst, st = d3->ok ? gcp_field_psi_B_RZ3(v->f, pt->R, pt->Z, d3->ps, fs, &fst, d3->Bd) : -1;
+    if (st == -1) {
+        d3->ok = 0;
+        st = gcp_field_psi_B_RZ(v->f, pt->R, pt->Z, d3->ps, fs, &fst);
+    }
+    const int mst = num_map_psi(v->t, s, d3->ps, st, pt);
     return mst ? mst : fst;
 }
 
@@ -694,5 +717,13 @@ int gcp_flux_num_build(const struct gcp_field *f, struct gcp_flux_chart *c, char
     c->pc.what = "tabulated orthogonal (rho, eta), rho = sqrt(psi_N)";
     c->owned = v;
     c->free_ctx = view_free;
+    /* the jets where the table is septic and the field has B's second
+     * derivatives (a probe on the axis): elsewhere the solver's Jacobian by
+     * differences, as before */
+    struct gcp_field_sample fs;
+    double pr[6], Bd[3][6];
+    int fst;
+    if (t->spl.kind == GCP_SPL_SEPTIC && gcp_field_psi_B_RZ3(f, t->Ra, t->Za, pr, &fs, &fst, Bd) != -1)
+        c->map_field3 = num_map_field3;
     return 0;
 }

@@ -115,6 +115,14 @@ struct gcp_canon_chart {
     int (*wlift_eval)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k, double eta,
                       const double w[2], const struct gcp_canon_wpoint *same,
                       struct gcp_canon_wpoint *out);
+    /* Optional (with wlift_eval): wlift_eval (same = NULL; the same numbers)
+     * and the derivatives of F = (dH/dP_eta, -dH/deta) there, Fw[r][c] =
+     * dF_r/dw_c at fixed eta and Fe[r] = dF_r/deta at fixed w, from the
+     * chart's higher derivatives (the solver's Jacobian); *have = 0 where
+     * it has none at that point.  0 or a status. */
+    int (*wlift_eval_df)(const struct gcp_canon_chart *c, const struct gcp_gc_consts *k,
+                         double eta, const double w[2], struct gcp_canon_wpoint *out,
+                         double Fw[2][2], double Fe[2], int *have);
     /* Optional (with lift_eval): lift_eval at n points (R[j], Z[j]) with
      * P_eta Peta[j] and magnetic moment mu[j] (q, m of k), the same numbers
      * point by point; status[j] 0 or lift_eval's status.  The block solver

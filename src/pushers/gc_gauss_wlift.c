@@ -48,6 +48,20 @@
  * again once where the first update was large or an update contracted less
  * than 10x; an update that stops contracting after that abandons the step
  * for the inverting solver (gc_gauss.c).
+ * Charts with wlift_eval_df (the tabulated flux chart of a G-EQDSK field,
+ * canon_flux.c): F_w, F_eta analytic, from the same evaluation as the
+ * point (its jets: the table's third derivatives, B's second), at the
+ * first iterate and at every iterate after an update above GLW_DFTHR =
+ * 1e-3 of the scales or one that contracted less than 10x: a full Newton
+ * while far, the Jacobian frozen near the fixed point, no differences.
+ * Why: the predictor's first update is ~1e-2 of the scales at 25 steps a
+ * bounce, which the frozen Jacobian above took 5.7 (gc-gl2) / 5.2 (gc-gl4)
+ * iterates a step to close, the Jacobian differenced at nearly every step
+ * (two chart evaluations a stage); with it, 3.8 / 3.7 iterates, 2.2 of
+ * them with the Jacobian (bench_flux, DIII-D; a Newton with the Jacobian
+ * at every iterate took the same 3.8, and at the first only, 7.2).  An
+ * evaluation with the jets costs ~1.6 plain ones.  The fixed point and
+ * the tests are unchanged; only the iterates (so the last bits) move.
  * End point (the guess of from_canon): the Hermite polynomial in time
  * through the start point w0 and the stage points w_i with their slopes
  * dw/dt = Gw^-1 ((0, K^P) - Ge K^eta), at t = h: error O(h^(2s+1)), so the
@@ -62,8 +76,10 @@
 #include "gc_gauss_priv.h"
 
 #define GLW_MAXIT 40
+
 #define GLW_TOL 1e-15
 #define GLW_FD 1e-7
+#define GLW_DFTHR 1e-3 /* see the header: above, the analytic Jacobian again */
 /* The round-off floor of the updates: the chart residual r carries the
  * rounding of q A_eta + p_par h_eta (~1e2 times p_par's ulp, ~1e-14 of the
  * scale); measured below 1e-13 in the tokamak and DIII-D. */
@@ -83,6 +99,20 @@ static int glw_stage(const struct gl_ctx *C, const struct gcp_gc_consts *k, doub
     return 0;
 }
 
+/* glw_stage with F's derivatives (wlift_eval_df; have = 0: none). */
+static int glw_stage_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, double eta,
+                        const double w[2], struct gcp_canon_wpoint *o, double g[2], double qd[2],
+                        double Fw[2][2], double Fe[2], int *have)
+{
+    const int st = C->chart.wlift_eval_df(&C->chart, k, eta, w, o, Fw, Fe, have);
+    if (st) return st;
+    g[0] = o->dH[3];
+    g[1] = -o->dH[1];
+    qd[0] = o->dH[2];
+    qd[1] = 1.0;
+    return 0;
+}
+
 /* Gw^-1 b. */
 static void glw_solve2(const double A[2][2], const double b[2], double x[2])
 {
@@ -91,7 +121,29 @@ static void glw_solve2(const double A[2][2], const double b[2], double x[2])
     x[1] = (-A[1][0] * b[0] + A[0][0] * b[1]) / det;
 }
 
-/* DF and dF/dP_phi of stage i (see the header) into L->DF[i], L->DFp[i]. */
+/* DF and dF/dP_phi of stage i (see the header) into L->DF[i], L->DFp[i]
+ * from F's derivatives in w (Fw) and eta (Fe) at the stage point o. */
+static int glw_df_set(struct gl_lane *L, int i, const struct gcp_canon_wpoint *o,
+                      const double Fw[2][2], const double Fe[2])
+{
+    const double det = o->Pw[0][0] * o->Pw[1][1] - o->Pw[0][1] * o->Pw[1][0];
+    const double Gi[2][2] = {{o->Pw[1][1] / det, -o->Pw[0][1] / det},
+                             {-o->Pw[1][0] / det, o->Pw[0][0] / det}};
+    for (int r = 0; r < 2; r++) {
+        const double M0 = Fw[r][0] * Gi[0][0] + Fw[r][1] * Gi[1][0];
+        const double M1 = Fw[r][0] * Gi[0][1] + Fw[r][1] * Gi[1][1];
+        L->DFp[i][r] = M0;
+        L->DF[i][r][1] = M1;
+        L->DF[i][r][0] = Fe[r] - (M0 * o->Pe[0] + M1 * o->Pe[1]);
+    }
+    return isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1] +
+                    L->DFp[i][0] + L->DFp[i][1])
+               ? 0
+               : -1;
+}
+
+/* DF and dF/dP_phi of stage i with F's derivatives by forward differences
+ * (charts without wlift_eval_df, or where it has none). */
 static int glw_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct gl_lane *L,
                   int i, double eta, const double w[2], const struct gcp_canon_wpoint *o,
                   const double g[2])
@@ -108,20 +160,7 @@ static int glw_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct 
     const double e2 = eta + GLW_FD * L->sc[0], de = e2 - eta;
     if (glw_stage(C, k, e2, w, NULL, &o2, g2, q2)) return -1;
     for (int r = 0; r < 2; r++) Fe[r] = (g2[r] - g[r]) / de;
-    const double det = o->Pw[0][0] * o->Pw[1][1] - o->Pw[0][1] * o->Pw[1][0];
-    const double Gi[2][2] = {{o->Pw[1][1] / det, -o->Pw[0][1] / det},
-                             {-o->Pw[1][0] / det, o->Pw[0][0] / det}};
-    for (int r = 0; r < 2; r++) {
-        const double M0 = Fw[r][0] * Gi[0][0] + Fw[r][1] * Gi[1][0];
-        const double M1 = Fw[r][0] * Gi[0][1] + Fw[r][1] * Gi[1][1];
-        L->DFp[i][r] = M0;
-        L->DF[i][r][1] = M1;
-        L->DF[i][r][0] = Fe[r] - (M0 * o->Pe[0] + M1 * o->Pe[1]);
-    }
-    return isfinite(L->DF[i][0][0] + L->DF[i][1][0] + L->DF[i][0][1] + L->DF[i][1][1] +
-                    L->DFp[i][0] + L->DFp[i][1])
-               ? 0
-               : -1;
+    return glw_df_set(L, i, o, Fw, Fe);
 }
 
 /* The end point's guess pe at t = h (units of h: nodes 0 and c_i): the
@@ -171,18 +210,42 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
     int refreshed = 0;
     for (int it = 0; it < GLW_MAXIT; it++) {
         double eta[GL_SMAX], r[GL_SMAX][2];
+        /* the analytic Jacobian, where the chart has it: at the first
+         * iterate, after an update above GLW_DFTHR (a full Newton there) or
+         * one that contracted less than 10x (see the header) */
+        const int adf = C->chart.wlift_eval_df &&
+                        (it == 0 || nprev > GLW_DFTHR || (it > 1 && thprev > 0.1));
         for (int i = 0; i < s; i++) {
             double ae = 0.0, aP = 0.0;
             for (int j = 0; j < s; j++) ae += T->a[i][j] * K[j][0], aP += T->a[i][j] * K[j][1];
             eta[i] = L->z[1] + h * ae;
-            if (glw_stage(C, k, eta[i], w[i], NULL, &o[i], g[i], pd[i])) return GCP_STEP_FAILED;
+            if (adf) {
+                double Fw[2][2], Fe[2];
+                int have;
+                if (glw_stage_df(C, k, eta[i], w[i], &o[i], g[i], pd[i], Fw, Fe, &have))
+                    return GCP_STEP_FAILED;
+                if (have) {
+                    if (glw_df_set(L, i, &o[i], Fw, Fe)) return GCP_STEP_FAILED;
+                } else if (glw_df(C, k, L, i, eta[i], w[i], &o[i], g[i])) {
+                    return GCP_STEP_FAILED;
+                }
+            } else if (glw_stage(C, k, eta[i], w[i], NULL, &o[i], g[i], pd[i])) {
+                return GCP_STEP_FAILED;
+            }
             r[i][0] = L->z[2] - o[i].P[0];
             r[i][1] = L->z[3] + h * aP - o[i].P[1];
+        }
+        if (adf) {
+            if (it > 0) refreshed = 1;
+            if (gcp_gl_lift_jinv(C, L, h)) return GCP_STEP_FAILED;
         }
         /* DF at the first iterate, and once more where the first update was
          * large (a predictor far off: DF taken there is off too) or an update
          * contracted less than 10x */
-        if ((it == 0 && !stale) || (!refreshed && it > 0 && (it == 1 ? nprev > 1e-2 : thprev > 0.1))) {
+        else if (C->chart.wlift_eval_df) {
+            /* frozen: the last analytic one */
+        } else if ((it == 0 && !stale) ||
+                 (!refreshed && it > 0 && (it == 1 ? nprev > 1e-2 : thprev > 0.1))) {
             refreshed = it > 0;
             for (int i = 0; i < s; i++)
                 if (glw_df(C, k, L, i, eta[i], w[i], &o[i], g[i])) return GCP_STEP_FAILED;
