@@ -13,14 +13,17 @@
  *
  * What else a rank's MPI_Init spent on one node (strace, perf of a 2-rank
  * MPI_Init + MPI_Win_allocate + MPI_Finalize, Open MPI 4.1.4, hwloc 2.9):
- *   - each rank discovers the node's topology itself (mpirun hands it no
- *     copy: hwloc_base_verbose says "discovering topology"), with hwloc's
+ *   - a rank that mpirun did not bind (--bind-to none, or more ranks than
+ *     cores) discovers the node's topology itself (hwloc_base_verbose:
+ *     "discovering topology"; a bound one skips it), with hwloc's
  *     plugins: pci reads every device's PCI configuration space (slow in a
  *     VM: 10% of the rank's start-up CPU), gl links X11 and tries to
  *     connect to displays :0..:N, opencl links the OpenCL loader,
- *     xml_libxml links libxml2 and ICU.  Shared memory needs only the
- *     cores and NUMA nodes, which hwloc's built-in Linux backend finds;
- *     HWLOC_PLUGINS_BLACKLIST keeps the plugins from being loaded at all.
+ *     xml_libxml links libxml2 and ICU; without them the Linux backend
+ *     still reads the PCI devices' configuration and walks the block and
+ *     network devices.  Shared memory needs only the cores and NUMA nodes:
+ *     HWLOC_PLUGINS_BLACKLIST keeps the plugins from being loaded at all,
+ *     HWLOC_COMPONENTS drops the Linux backend's PCI and I/O phases.
  *   - every component of a framework is dlopened, queried and (unless
  *     chosen) dlclosed again: btl tcp (which also opens its sockets) and
  *     sm (an alias of vader) beside self and vader; 10 collective
@@ -29,8 +32,11 @@
  *     algorithms, the same results); osc rdma and monitoring beside sm,
  *     which is what MPI_Win_allocate on one node picks.
  * On 2 ranks (15 alternating runs, medians) the hwloc plugins cost 0.014 s
- * of each rank's MPI_Init CPU (0.085 -> 0.071 s), the components 0.009 s
- * more (-> 0.062 s) and 0.004 s of MPI_Finalize (0.017 -> 0.013 s).  Each
+ * of each rank's MPI_Init CPU (0.085 -> 0.071 s) and 0.008 s of its
+ * MPI_Finalize (0.025 -> 0.017 s), the components 0.009 s more (-> 0.062
+ * s) and 0.004 s of MPI_Finalize (-> 0.013 s); the Linux backend's PCI and
+ * I/O phases another 0.019 s (10 alternating runs under load: 0.059 ->
+ * 0.040 s).  Each
  * is set only where neither the environment nor a parameter file chooses
  * it already.
  *
@@ -201,8 +207,12 @@ unsigned gcp_par_local_defaults(void)
             snprintf(env, sizeof env, "OMPI_MCA_%s", frameworks[k].key);
             setenv(env, frameworks[k].value, 0);
         }
-    if (want & GCP_PAR_HWLOC)
+    if (want & GCP_PAR_HWLOC) {
         setenv("HWLOC_PLUGINS_BLACKLIST", "hwloc_pci,hwloc_gl,hwloc_opencl,hwloc_xml_libxml", 0);
+        /* the Linux backend's own PCI and I/O phases (hwloc >= 2.1 reads
+         * `component:phase`; older ones find no such component) */
+        setenv("HWLOC_COMPONENTS", "-linux:pci,-linux:io", 0);
+    }
     if (want & GCP_PAR_ISOLATED) setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
     return want;
 #else
