@@ -36,9 +36,8 @@
  * MPI_Finalize (0.025 -> 0.017 s), the components 0.009 s more (-> 0.062
  * s) and 0.004 s of MPI_Finalize (-> 0.013 s); the Linux backend's PCI and
  * I/O phases another 0.019 s (10 alternating runs under load: 0.059 ->
- * 0.040 s).  Each
- * is set only where neither the environment nor a parameter file chooses
- * it already.
+ * 0.040 s).  Each is set only where neither the environment nor a
+ * parameter file chooses it already.
  *
  * A rank waiting in MPI (a collective of the output, the barrier before
  * it) polls; Open MPI yields the core between polls only where mpirun saw
@@ -64,9 +63,6 @@
 #define GCP_OMPI_SYSCONFDIR "/etc/openmpi"
 #endif
 
-/* Whether a parameter file sets `key`: a line `key = value` (blanks
- * around), other than an exclusion list (value `^a,b`) that leaves every
- * name of the comma list `keep` in.  A missing file sets nothing. */
 /* Whether the comma list `list` holds the name q[0..n). */
 static int names(const char *list, const char *q, size_t n)
 {
@@ -79,6 +75,9 @@ static int names(const char *list, const char *q, size_t n)
     return 0;
 }
 
+/* Whether a parameter file sets `key`: a line `key = value` (blanks
+ * around), other than an exclusion list (value `^a,b`) that leaves every
+ * name of the comma list `keep` in.  A missing file sets nothing. */
 static int file_sets(const char *path, const char *key, const char *keep)
 {
     FILE *fp = fopen(path, "r");
