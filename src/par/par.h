@@ -27,14 +27,27 @@ void gcp_par_counter_free(struct gcp_par_counter *c);
 
 /* Open MPI's start-up where every rank is on this node (transport.c):
  * called before MPI_Init, it asks for the ob1 point-to-point layer (no
- * probing for network hardware) and, in a process started without mpirun,
- * for no helper daemon -- each only where neither the environment nor
- * Open MPI's parameter files choose already, and never under a launcher
- * that does not say all ranks share the node.  Returns what it set
- * (GCP_PAR_* bits); nothing with another MPI.  gcp_par_local_defaults_for
- * is its decision alone: environment lookups through `get`, the parameter
- * files `files` (NULL-terminated). */
-enum { GCP_PAR_OB1 = 1, GCP_PAR_ISOLATED = 2 };
+ * probing for network hardware), the self and vader (shared memory)
+ * transports, the collective and one-sided components that one node
+ * uses, no hwloc plugins (PCI, OpenGL, OpenCL devices, libxml2), a yield
+ * of the core while waiting in MPI and, in a
+ * process started without mpirun, for no helper daemon -- each only where
+ * neither the environment nor Open MPI's parameter files choose already,
+ * and never under a launcher that does not say all ranks share the node.
+ * Returns what it set (GCP_PAR_* bits); nothing with another MPI.
+ * gcp_par_local_defaults_for is its decision alone: environment lookups
+ * through `get`, the parameter files `files` (NULL-terminated). */
+enum {
+    GCP_PAR_OB1 = 1,
+    GCP_PAR_ISOLATED = 2,
+    GCP_PAR_BTL = 4,   /* btl = self,vader */
+    GCP_PAR_COLL = 8,  /* coll = basic,libnbc,self,tuned */
+    GCP_PAR_OSC = 16,  /* osc = sm */
+    GCP_PAR_HWLOC = 32, /* HWLOC_PLUGINS_BLACKLIST: no I/O device or XML plugins */
+    GCP_PAR_YIELD = 64, /* mpi_yield_when_idle = 1 */
+    GCP_PAR_ONE_NODE = GCP_PAR_OB1 | GCP_PAR_BTL | GCP_PAR_COLL | GCP_PAR_OSC | GCP_PAR_HWLOC |
+                       GCP_PAR_YIELD
+};
 typedef const char *(*gcp_par_getenv)(void *ctx, const char *name);
 unsigned gcp_par_local_defaults(void);
 unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *const *files);

@@ -9,7 +9,48 @@
  * correct and skips the probes; across nodes the choice is the cluster's
  * and is left alone.  A process started without mpirun (a singleton, as
  * `make run` starts gcpush) forks a helper daemon in MPI_Init that only
- * MPI_Comm_spawn needs, which gcpush never calls: 0.25 s more. */
+ * MPI_Comm_spawn needs, which gcpush never calls: 0.25 s more.
+ *
+ * What else a rank's MPI_Init spent on one node (strace, perf of a 2-rank
+ * MPI_Init + MPI_Win_allocate + MPI_Finalize, Open MPI 4.1.4, hwloc 2.9):
+ *   - a rank that mpirun did not bind (--bind-to none, or more ranks than
+ *     cores) discovers the node's topology itself (hwloc_base_verbose:
+ *     "discovering topology"; a bound one skips it), with hwloc's
+ *     plugins: pci reads every device's PCI configuration space (slow in a
+ *     VM: 10% of the rank's start-up CPU), gl links X11 and tries to
+ *     connect to displays :0..:N, opencl links the OpenCL loader,
+ *     xml_libxml links libxml2 and ICU; without them the Linux backend
+ *     still reads the PCI devices' configuration and walks the block and
+ *     network devices.  Shared memory needs only the cores and NUMA nodes:
+ *     HWLOC_PLUGINS_BLACKLIST keeps the plugins from being loaded at all,
+ *     HWLOC_COMPONENTS drops the Linux backend's PCI and I/O phases.
+ *   - every component of a framework is dlopened, queried and (unless
+ *     chosen) dlclosed again: btl tcp (which also opens its sockets) and
+ *     sm (an alias of vader) beside self and vader; 10 collective
+ *     components where tuned, libnbc, basic and self are the only ones
+ *     with a priority above 0 (so the ones used either way: the same
+ *     algorithms, the same results); osc rdma and monitoring beside sm,
+ *     which is what MPI_Win_allocate on one node picks.
+ * On 2 ranks (15 alternating runs, medians) the hwloc plugins cost 0.014 s
+ * of each rank's MPI_Init CPU (0.085 -> 0.071 s) and 0.008 s of its
+ * MPI_Finalize (0.025 -> 0.017 s), the components 0.009 s more (-> 0.062
+ * s) and 0.004 s of MPI_Finalize (-> 0.013 s); the Linux backend's PCI and
+ * I/O phases another 0.019 s (10 alternating runs under load: 0.059 ->
+ * 0.040 s).  Each is set only where neither the environment nor a
+ * parameter file chooses it already.
+ *
+ * A rank waiting in MPI (a collective of the output, the barrier before
+ * it) polls; Open MPI yields the core between polls only where mpirun saw
+ * more ranks than cores.  On a node shared with other work the ranks are
+ * descheduled now and then, each collective waits for the slower one, and
+ * the poller takes CPU from the rank it waits for: on the build machine
+ * under load (~6 other jobs, 6 alternating 2-rank flagship runs, medians)
+ * each rank's CPU outside the push fell from 0.55 to 0.31 s with
+ * mpi_yield_when_idle, mpirun's wall from 4.0 to 3.2 s.  gcpush's own
+ * traffic is a few collectives and the shared counter (one-sided atomics
+ * in shared memory, no polling), so the latency yielding costs on an idle
+ * node does not show.  Tried and dropped: pmix_base_async_modex (no fence
+ * in MPI_Init; MPI_Init then failed now and then). */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
 #include <stdio.h>
@@ -22,9 +63,21 @@
 #define GCP_OMPI_SYSCONFDIR "/etc/openmpi"
 #endif
 
+/* Whether the comma list `list` holds the name q[0..n). */
+static int names(const char *list, const char *q, size_t n)
+{
+    for (const char *p = list; *p;) {
+        const size_t m = strcspn(p, ",");
+        if (m == n && strncmp(p, q, n) == 0) return 1;
+        p += m;
+        if (*p == ',') p++;
+    }
+    return 0;
+}
+
 /* Whether a parameter file sets `key`: a line `key = value` (blanks
- * around), other than an exclusion list (value `^a,b`) that leaves `keep`
- * in.  A missing file sets nothing. */
+ * around), other than an exclusion list (value `^a,b`) that leaves every
+ * name of the comma list `keep` in.  A missing file sets nothing. */
 static int file_sets(const char *path, const char *key, const char *keep)
 {
     FILE *fp = fopen(path, "r");
@@ -48,7 +101,7 @@ static int file_sets(const char *path, const char *key, const char *keep)
         for (const char *q = p + 1;;) {
             q += strspn(q, " \t");
             const size_t n = strcspn(q, ", \t\r\n#");
-            if (n == strlen(keep) && strncmp(q, keep, n) == 0) {
+            if (n && names(keep, q, n)) {
                 set = 1;
                 break;
             }
@@ -63,14 +116,32 @@ static int file_sets(const char *path, const char *key, const char *keep)
 }
 
 /* Whether the environment or Open MPI's parameter files choose the
- * point-to-point layer. */
-static int pml_chosen(gcp_par_getenv get, void *ctx, const char *const *files)
+ * framework `key`'s components (other than an exclusion that keeps all of
+ * `keep`). */
+static int chosen(gcp_par_getenv get, void *ctx, const char *const *files, const char *key,
+                  const char *keep)
 {
-    if (get(ctx, "OMPI_MCA_pml")) return 1;
+    char env[64];
+    snprintf(env, sizeof env, "OMPI_MCA_%s", key);
+    if (get(ctx, env)) return 1;
     for (; *files; files++)
-        if (file_sets(*files, "pml", "ob1")) return 1;
+        if (file_sets(*files, key, keep)) return 1;
     return 0;
 }
+
+/* The parameters whose value on one node is gcpush's default: bit, the
+ * parameter, the value (for a framework, the components asked for: also
+ * what an exclusion list must keep). */
+static const struct {
+    unsigned bit;
+    const char *key, *value;
+} frameworks[] = {
+    {GCP_PAR_OB1, "pml", "ob1"},
+    {GCP_PAR_BTL, "btl", "self,vader"},
+    {GCP_PAR_COLL, "coll", "basic,libnbc,self,tuned"},
+    {GCP_PAR_OSC, "osc", "sm"},
+    {GCP_PAR_YIELD, "mpi_yield_when_idle", "1"},
+};
 
 static long env_long(gcp_par_getenv get, void *ctx, const char *name)
 {
@@ -87,7 +158,7 @@ unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *c
     const long local = env_long(get, ctx, "OMPI_COMM_WORLD_LOCAL_SIZE");
     unsigned want = 0;
     if (size > 0 || local > 0) {
-        if (size > 0 && size == local) want = GCP_PAR_OB1;
+        if (size > 0 && size == local) want = GCP_PAR_ONE_NODE;
     } else {
         /* another launcher (srun, a PMI or PMIx server) says nothing about
          * nodes here: leave it alone; no launcher at all is a singleton */
@@ -96,9 +167,17 @@ unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *c
                                                "OMPI_COMM_WORLD_RANK", "HYDRA_CONTROL_FD"};
         int any = 0;
         for (size_t k = 0; k < sizeof launched / sizeof launched[0]; k++) any |= get(ctx, launched[k]) != NULL;
-        if (!any) want = GCP_PAR_OB1 | (get(ctx, "OMPI_MCA_ess_singleton_isolated") ? 0 : GCP_PAR_ISOLATED);
+        if (!any)
+            want = GCP_PAR_ONE_NODE | (get(ctx, "OMPI_MCA_ess_singleton_isolated") ? 0 : GCP_PAR_ISOLATED);
     }
-    if ((want & GCP_PAR_OB1) && pml_chosen(get, ctx, files)) want &= ~(unsigned)GCP_PAR_OB1;
+    for (size_t k = 0; k < sizeof frameworks / sizeof frameworks[0]; k++)
+        if ((want & frameworks[k].bit) && chosen(get, ctx, files, frameworks[k].key, frameworks[k].value))
+            want &= ~frameworks[k].bit;
+    /* hwloc's own variables: a list of plugins, or components, or a
+     * topology file of the user's own */
+    if ((want & GCP_PAR_HWLOC) && (get(ctx, "HWLOC_PLUGINS_BLACKLIST") || get(ctx, "HWLOC_COMPONENTS") ||
+                                   get(ctx, "HWLOC_XMLFILE") || get(ctx, "HWLOC_FSROOT")))
+        want &= ~(unsigned)GCP_PAR_HWLOC;
     return want;
 }
 
@@ -121,7 +200,18 @@ unsigned gcp_par_local_defaults(void)
     if (prefix && *prefix) snprintf(pre, sizeof pre, "%s/etc/openmpi-mca-params.conf", prefix);
     const char *const files[] = {home, sys, pre, NULL};
     const unsigned want = gcp_par_local_defaults_for(real_getenv, NULL, files);
-    if (want & GCP_PAR_OB1) setenv("OMPI_MCA_pml", "ob1", 0);
+    for (size_t k = 0; k < sizeof frameworks / sizeof frameworks[0]; k++)
+        if (want & frameworks[k].bit) {
+            char env[64];
+            snprintf(env, sizeof env, "OMPI_MCA_%s", frameworks[k].key);
+            setenv(env, frameworks[k].value, 0);
+        }
+    if (want & GCP_PAR_HWLOC) {
+        setenv("HWLOC_PLUGINS_BLACKLIST", "hwloc_pci,hwloc_gl,hwloc_opencl,hwloc_xml_libxml", 0);
+        /* the Linux backend's own PCI and I/O phases (hwloc >= 2.1 reads
+         * `component:phase`; older ones find no such component) */
+        setenv("HWLOC_COMPONENTS", "-linux:pci,-linux:io", 0);
+    }
     if (want & GCP_PAR_ISOLATED) setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
     return want;
 #else

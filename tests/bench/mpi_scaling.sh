@@ -14,6 +14,9 @@
 # push and the wait + the larger of their push CPU.  mpirun's time outside
 # the ranks is not in the model: it adds about the same to T1 and T2, so the
 # measured speed-up on an idle machine comes out a little below the model's.
+# A rank waiting in a collective yields its core (gcpush's one-node default
+# mpi_yield_when_idle, src/par/transport.c): under load a spinning rank's
+# poll counted as CPU outside the push and inflated T2.
 set -u
 GCPUSH=${GCPUSH:-$(pwd)/bin/gcpush}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 GCPUSH_TIMING=1

@@ -59,6 +59,13 @@ same r1.h5 r3.h5
 sed "s/OUT/s3.h5/" ens.run > s3.run
 GCP_SPREAD_RUNS=0 $MPIRUN -x GCP_SPREAD_RUNS -np 3 "$GCPUSH" --quiet s3.run || die "run with rows moved failed"
 same r1.h5 s3.h5
+# gcpush's one-node defaults (src/par/transport.c) choose only how the
+# ranks start and talk: with the user's own choices kept instead (TCP
+# between the ranks, spinning waits, hwloc's full discovery), the same file
+sed "s/OUT/u2.h5/" ens.run > u2.run
+OMPI_MCA_btl=self,tcp OMPI_MCA_mpi_yield_when_idle=0 HWLOC_COMPONENTS=linux \
+    $MPIRUN -np 2 "$GCPUSH" --quiet u2.run || die "run with the user's Open MPI choices failed"
+same r1.h5 u2.h5
 # guiding centres (X, p_par, mu columns; gc-gl4) the same on 1 and 3 ranks
 for n in 1 3; do
     sed "s/OUT/g$n.h5/; s/^method   = boris/method   = gc-gl4/; s/^dt       = 0.1 gyro/dt       = 0.02 bounce/; s/^duration = 0.2 s/duration = 5 s/" ens.run > g$n.run

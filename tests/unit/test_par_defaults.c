@@ -1,6 +1,7 @@
-/* gcp_par_local_defaults_for (src/par/transport.c): Open MPI's ob1 layer
- * is asked for only where every rank is on this node and nobody chose a
- * layer; a rank across nodes or under another launcher keeps the
+/* gcp_par_local_defaults_for (src/par/transport.c): Open MPI's ob1 layer,
+ * its shared-memory transports, collective and one-sided components and
+ * no hwloc device plugins are asked for only where every rank is on this
+ * node, each only where nobody chose it; a rank across nodes or under another launcher keeps the
  * cluster's choice (a wrong guess there would make ranks disagree, or
  * lose the network).  The environment is a table; parameter files are
  * written to a temporary directory. */
@@ -28,7 +29,7 @@ Test(par_defaults, mpirun_one_node_gets_ob1)
 {
     const char *env[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
                          "OMPI_COMM_WORLD_RANK", "1", NULL};
-    cr_assert_eq(decide(env), GCP_PAR_OB1);
+    cr_assert_eq(decide(env), GCP_PAR_ONE_NODE);
 }
 
 Test(par_defaults, mpirun_across_nodes_left_alone)
@@ -43,15 +44,29 @@ Test(par_defaults, user_choice_kept)
 {
     const char *env[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
                          "OMPI_MCA_pml", "ucx", NULL};
-    cr_assert_eq(decide(env), 0);
+    cr_assert_eq(decide(env), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OB1);
     const char *single[] = {"OMPI_MCA_ess_singleton_isolated", "0", NULL};
-    cr_assert_eq(decide(single), GCP_PAR_OB1); /* the daemon the user asked for stays */
+    cr_assert_eq(decide(single), GCP_PAR_ONE_NODE); /* the daemon the user asked for stays */
+    /* each choice of the user's removes only its own default */
+    const char *btl[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
+                         "OMPI_MCA_btl", "self,tcp", "OMPI_MCA_osc", "rdma", NULL};
+    cr_assert_eq(decide(btl), GCP_PAR_OB1 | GCP_PAR_COLL | GCP_PAR_HWLOC | GCP_PAR_YIELD);
+    const char *coll[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
+                          "OMPI_MCA_coll", "^han", NULL};
+    cr_assert_eq(decide(coll), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_COLL);
+    /* hwloc's own variables, any of them: the user's topology setup */
+    static const char *const hw[] = {"HWLOC_PLUGINS_BLACKLIST", "HWLOC_COMPONENTS", "HWLOC_XMLFILE",
+                                     "HWLOC_FSROOT"};
+    for (size_t k = 0; k < sizeof hw / sizeof hw[0]; k++) {
+        const char *e[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2", hw[k], "x", NULL};
+        cr_assert_eq(decide(e), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_HWLOC, "%s", hw[k]);
+    }
 }
 
 Test(par_defaults, singleton_and_other_launchers)
 {
     const char *none[] = {NULL};
-    cr_assert_eq(decide(none), GCP_PAR_OB1 | GCP_PAR_ISOLATED);
+    cr_assert_eq(decide(none), GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED);
     const char *srun[] = {"PMIX_RANK", "0", "SLURM_PROCID", "0", NULL};
     cr_assert_eq(decide(srun), 0);
     const char *hydra[] = {"PMI_RANK", "3", NULL};
@@ -76,11 +91,22 @@ static unsigned decide_file(const char *text)
 
 Test(par_defaults, parameter_files)
 {
-    /* Debian's own file excludes ucx only: ob1 is still free to be asked for */
+    /* Debian's own file excludes ucx and network transports only: ob1,
+     * self and vader, and osc sm are still free to be asked for */
     cr_assert_eq(decide_file("# comment\nbtl = ^uct,openib,ofi\npml = ^ucx\nosc = ^ucx,pt2pt\n"),
-                 GCP_PAR_OB1);
-    cr_assert_eq(decide_file("pml_ucx_verbose = 0\n"), GCP_PAR_OB1);
-    cr_assert_eq(decide_file("  pml=ucx\n"), 0);
-    cr_assert_eq(decide_file("pml = ^ucx, ob1\n"), 0);
-    cr_assert_eq(decide_file("pml = cm\n"), 0);
+                 GCP_PAR_ONE_NODE);
+    cr_assert_eq(decide_file("pml_ucx_verbose = 0\n"), GCP_PAR_ONE_NODE);
+    const unsigned no_pml = GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OB1;
+    cr_assert_eq(decide_file("  pml=ucx\n"), no_pml);
+    cr_assert_eq(decide_file("pml = ^ucx, ob1\n"), no_pml);
+    cr_assert_eq(decide_file("pml = cm\n"), no_pml);
+    /* an exclusion list that names one of the components asked for */
+    const unsigned no_btl = GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_BTL;
+    cr_assert_eq(decide_file("btl = ^vader\n"), no_btl);
+    cr_assert_eq(decide_file("btl = ^tcp,self\n"), no_btl);
+    cr_assert_eq(decide_file("btl = ^tcp\n"), GCP_PAR_ONE_NODE);
+    cr_assert_eq(decide_file("coll = ^tuned\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_COLL);
+    cr_assert_eq(decide_file("coll = ^han,adapt\n"), GCP_PAR_ONE_NODE);
+    cr_assert_eq(decide_file("osc = rdma\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OSC);
+    cr_assert_eq(decide_file("mpi_yield_when_idle = 0\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_YIELD);
 }
