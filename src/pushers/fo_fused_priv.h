@@ -238,7 +238,12 @@ struct gcp_fo_fused {
 
 /* The close of the gyrations that end in a step (GCP_FO_GYRO_TILE_DEFINE_)
  * for the 8 tile lanes IX[0..7] (padded: a repeat of a lane before), the
- * first NK of them real: their state copied into 8-lane arrays, the
+ * first NK of them real: their state copied into 8-lane arrays (in8, ks8
+ * of the tile function: a call's first close fills all 8 slots, a later
+ * one the NK real lanes only -- the slots past them keep a lane of an
+ * earlier close, whose values go through the vector loop unused; a step
+ * ends ~3 gyrations in a 64-lane tile at 0.05 gyro, so this copies ~3
+ * lanes' 28 values, not 8 lanes'), the
  * rebuilt step before and gcp_fo_gyro_close_vals in one loop over the 8
  * (one vector a value: the divisions and square roots of 8 lanes at the
  * price of one's), then the new gyrations' state and the kept records
@@ -248,10 +253,11 @@ struct gcp_fo_fused {
 #define GCP_FO_GYRO_CLOSE8_(FORM_, FT_, IX, NK)                                                 \
     {                                                                                           \
         const int64_t *restrict ix8 = (IX);                                                     \
-        _Alignas(64) double in8[29][8], out8[16][8], rv8[7][8], ok8[8];                         \
-        _Alignas(64) int64_t ks8[8];                                                            \
+        _Alignas(64) double out8[16][8], rv8[7][8], ok8[8];                                     \
         const int64_t kk = k0 + s;                                                              \
-        for (int l = 0; l < 8; l++) {                                                           \
+        const int nfill = in8_set ? (int)(NK) : 8;                                              \
+        in8_set = 1;                                                                            \
+        for (int l = 0; l < nfill; l++) {                                                       \
             const int64_t i = ix8[l];                                                           \
             in8[0][l] = K[0][i], in8[1][l] = K[1][i], in8[2][l] = K[2][i];                      \
             in8[3][l] = um[0][i], in8[4][l] = um[1][i], in8[5][l] = um[2][i];                   \
@@ -341,6 +347,10 @@ struct gcp_fo_fused {
         _Alignas(64) int64_t sp[GCP_FO_TILE];                                                   \
         _Alignas(64) double um[3][GCP_FO_TILE]; /* u- of the step, for the rare lanes */       \
         int64_t ix[GCP_FO_TILE + 8];            /* the rare lanes of the step */               \
+        /* the closes' 8-lane inputs (GCP_FO_GYRO_CLOSE8_), set by the call's first */         \
+        _Alignas(64) double in8[29][8];                                                         \
+        _Alignas(64) int64_t ks8[8];                                                            \
+        int in8_set = 0;                                                                        \
         (void)G;                                                                                \
         int64_t *restrict left = gy->left + i0;                                                 \
         double *restrict e20 = gy->e2[0] + i0, *restrict e21 = gy->e2[1] + i0,                  \
