@@ -523,8 +523,8 @@ static struct gcp_field *limit_field(enum limit_kind kind)
                                     (const double[3]){0.0, e * ey / en, e * ez / en});
 }
 
-static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p, size_t nb,
-                          double total_steps)
+static double limit_scene_arith(enum limit_kind kind, const struct gcp_pusher_type *p,
+                                size_t nb, double total_steps, int arith)
 {
     struct gcp_field *f = limit_field(kind);
     struct gcp_block b;
@@ -544,6 +544,7 @@ static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p,
             live = gcp_pusher_gc_rk4.advance(&b, f, &gcp_pusher_gc_rk4, &o, NULL);
         } else {
             gcp_block_start(&b, f, 0.0);
+            b.flags = arith ? GCP_BLOCK_FAST_ARITH : 0u;
             live = gcp_block_advance_fo(&b, f, p, 0.0, dt, nsteps, NULL);
         }
         const double t1 = now();
@@ -554,6 +555,12 @@ static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p,
     gcp_block_free(&b);
     gcp_field_free(f);
     return best;
+}
+
+static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p, size_t nb,
+                          double total_steps)
+{
+    return limit_scene_arith(kind, p, nb, total_steps, 0);
 }
 
 /* ---------------------------------------------------------------------------
@@ -678,6 +685,16 @@ static void limit_rows(int fo_only)
                limit_scene(LIMIT_BORIS_UNIFORM, &gcp_pusher_boris, nbs[k], 1e7));
         printf("limit-row boris-dipole %zu %.3f\n", nbs[k],
                limit_scene(LIMIT_BORIS_DIPOLE, &gcp_pusher_boris, nbs[k], 1e7));
+        /* the opt-in fast arithmetic ([integrator] arithmetic = fast:
+         * AVX-512 rsqrt14/rcp14 + 2 Newton steps, not IEEE rounded) */
+        if (gcp_arithmetic_fast_available(&gcp_pusher_boris)) {
+            printf("limit-row boris-uniform-fast %zu %.3f\n", nbs[k],
+                   limit_scene_arith(LIMIT_BORIS_UNIFORM, &gcp_pusher_boris, nbs[k], 1e7,
+                                     1));
+            printf("limit-row boris-dipole-fast %zu %.3f\n", nbs[k],
+                   limit_scene_arith(LIMIT_BORIS_DIPOLE, &gcp_pusher_boris, nbs[k], 1e7,
+                                     1));
+        }
         /* boris-nr: kernel (a)'s own method in its scene (E and B), and with
          * E = 0; in the dipole against (b) (relativistic: more work than ours) */
         printf("limit-row nr-uniform %zu %.3f\n", nbs[k],
