@@ -16,7 +16,7 @@
  *    float, |u+| != |u-| by ~1e-8 a step -- fails the bound;
  *  - uniform B: the gyration's phase after N steps is Boris's closed form
  *    N 2 atan(Omega dt / 2 gamma) (Birdsall & Langdon sec. 15-4) to
- *    round-off; uniform E x B: the mean drift E x B / B^2;
+ *    round-off, u_par and |u| kept;
  *  - a push in one call equals the same push one step a call (bit for bit:
  *    the tier recomputes 1/gamma from u on entry with the step's own
  *    expression), and the stop verdicts (inner bound, a non-finite lane)
