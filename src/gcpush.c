@@ -515,6 +515,11 @@ int main(int argc, char **argv)
             fprintf(stderr, "gcpush: warning: %s: %lld of its %lld initial states are not finite "
                     "(those particles end NONFINITE)\n", sc->pops[k].file,
                     (long long)sc->pops[k].init.nonfinite, (long long)sc->pops[k].count);
+    /* arithmetic = fast where this CPU, build or method has no fast step: say so */
+    if (me == 0 && sc->fast_arith && !gcp_arithmetic_fast_available(sc->pusher))
+        fprintf(stderr, "gcpush: note: [integrator] arithmetic = fast: no fast step for '%s' on "
+                "this CPU and build (the fast tier is boris with AVX-512F); the IEEE step runs\n",
+                sc->pusher->name);
     if (!restart && gcp_sweep_wanted(sc)) { /* [sweep]: error against run time (sweep.h) */
         default_stop_signals();
         /* a sweep's output is not replaced without --force either */

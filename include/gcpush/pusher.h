@@ -142,6 +142,22 @@ struct gcp_block {
  * push in which it stopped, as always. */
 #define GCP_BLOCK_CALLER_CLOCK 1u
 
+/* The fast arithmetic tier of the full-orbit fused step (opt-in, never
+ * the default; the run file's [integrator] arithmetic = fast).  Without
+ * it (IEEE): every square root and division IEEE rounded, the same numbers
+ * as the block step.  With it (boris in the closed-form fields, dipole and
+ * uniform): 1/sqrt and 1/x from the AVX-512 estimates vrsqrt14pd/vrcp14pd
+ * and two Newton steps, each within ~1 ulp, not IEEE rounded -- a step
+ * differs from the IEEE one in its last few bits (src/pushers/
+ * boris_fast.c).  Where the CPU or the build has no AVX-512F, and for any
+ * other pusher or field, the flag changes nothing (the IEEE step runs:
+ * gcp_arithmetic_fast_available says which). */
+#define GCP_BLOCK_FAST_ARITH 2u
+
+/* Non-zero when GCP_BLOCK_FAST_ARITH has a fast step for pusher p on this
+ * CPU and build (in the closed-form fields, dipole and uniform). */
+int gcp_arithmetic_fast_available(const struct gcp_pusher_type *p);
+
 /* Allocates a block of n lanes (all arrays; index[i] = i). */
 int gcp_block_alloc(struct gcp_block *b, size_t n);
 void gcp_block_free(struct gcp_block *b);

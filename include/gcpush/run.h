@@ -101,6 +101,8 @@ struct gcp_scene {
     double tolerance;       /* [1] adaptive methods: relative error per step (0: the method's default) */
     double adiabaticity_max;/* [1] guiding centre: eps = rho |grad B|/B (or rho/R_c) above which a
                                particle is NONADIABATIC */
+    int fast_arith;         /* [bool] [integrator] arithmetic = fast (full orbit, opt-in): the
+                               pushes run with GCP_BLOCK_FAST_ARITH (pusher.h) */
     double dt_given;
     enum gcp_period dt_period;
     char output[1024];      /* output file path */

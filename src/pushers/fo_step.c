@@ -17,6 +17,7 @@
 #include "gcpush/pusher.h"
 #include "block_priv.h"
 #include "evolve_priv.h"
+#include "fo_fast_priv.h"
 #include "fo_fused_priv.h"
 
 static const struct gcp_pusher_type *const all_pushers[] = {
@@ -408,9 +409,15 @@ static size_t advance_fo(struct gcp_block *b, const struct gcp_field *f,
     /* The fused step where the field is a closed form the pusher has a
      * kernel for (never asked which model it is: field_kernels.h). */
     struct gcp_point_B form;
+    /* GCP_BLOCK_FAST_ARITH: the fast tier's tiles where it has them (no
+     * observer tile: the sampler then observes each fast step itself) */
+    const struct gcp_fo_fused *fz = p->fused;
+    const struct gcp_fo_fused *ff = b->flags & GCP_BLOCK_FAST_ARITH ? gcp_fo_fast_set(p) : NULL;
     if (p->fused && gcp_field_point_B(f, &form) && form.form > 0 &&
-        form.form < GCP_POINT_B_NFORMS)
-        c.tile = p->fused->tile[form.form][form.has_E != 0];
+        form.form < GCP_POINT_B_NFORMS) {
+        if (ff && ff->tile[form.form][form.has_E != 0]) fz = ff;
+        c.tile = fz->tile[form.form][form.has_E != 0];
+    }
     if (c.tile) {
         c.targs = (struct gcp_fo_tile_args){
             .q = b->q, .m = b->m, .dt = dt, .h = 0.5 * dt, .rin2 = f->r_inner * f->r_inner,
@@ -420,7 +427,7 @@ static size_t advance_fo(struct gcp_block *b, const struct gcp_field *f,
          * B-only forms with a gyro kernel, a sampler of every step */
         if (gyro && sampler && sampler->fn && sampler->every == 1) {
             c.gy = gyro;
-            if (!form.has_E) c.gyro_tile = p->fused->gyro[form.form];
+            if (!form.has_E) c.gyro_tile = fz->gyro[form.form];
             if (c.gyro_tile &&
                 (nsteps <= 1 ||
                  !(c.gsave = malloc((6 + FO_GYRO_NSAVE) * (b->n + 1) * sizeof(double)))))
@@ -464,6 +471,11 @@ size_t gcp_block_advance_fo_opts(struct gcp_block *b, const struct gcp_field *f,
                                  const struct gcp_sampler *s)
 {
     return gcp_block_advance_fo(b, f, p, o->t0, o->dt, o->nsteps, s);
+}
+
+int gcp_arithmetic_fast_available(const struct gcp_pusher_type *p)
+{
+    return gcp_fo_fast_set(p) != NULL;
 }
 
 int gcp_orbit_push(const struct gcp_field *f, const struct gcp_pusher_type *p, double q, double m,

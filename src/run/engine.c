@@ -198,6 +198,7 @@ int gcp_engine_run(struct gcp_engine *e, struct gcp_results *res, int64_t slice_
     const int64_t S = res->S, row0 = res->n, count = e->count;
     const int gc = s->pusher->kind == GCP_GUIDING_CENTRE;
     restore(e);
+    if (s->fast_arith) b->flags |= GCP_BLOCK_FAST_ARITH; /* [integrator] arithmetic = fast */
     if (S) {
         for (int64_t j = row0 * S; j < (row0 + count) * S; j++) {
             res->traj_t[j] = NAN;

@@ -533,9 +533,22 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
     if (rc == 1 && !(sc->adiabaticity_max >= 0))
         return gcp_section_error(s, "adiabaticity", err, GCP_ERR_VALUE,
                                  "must be >= 0 (0: no check)");
+    /* arithmetic = ieee (the default: every root and division IEEE rounded)
+     * or fast (opt-in, full orbit: pusher.h GCP_BLOCK_FAST_ARITH) */
+    char arith[16];
+    if ((rc = gcp_section_string(s, "arithmetic", 0, arith, sizeof arith, err)) < 0) return rc;
+    if (rc == 1) {
+        if (strcmp(arith, "fast") != 0 && strcmp(arith, "ieee") != 0)
+            return gcp_section_error(s, "arithmetic", err, GCP_ERR_VALUE,
+                                     "expected ieee or fast, got '%s'", arith);
+        sc->fast_arith = strcmp(arith, "fast") == 0;
+        if (sc->fast_arith && (sc->hybrid || sc->pusher->kind != GCP_FULL_ORBIT))
+            return gcp_section_error(s, "arithmetic", err, GCP_ERR_VALUE,
+                                     "fast applies only to full-orbit methods (boris)");
+    }
     if ((rc = gcp_section_check_unused(s, sc->hybrid ? "method dt tolerance gc fo switch_to_fo "
-                                                       "switch_to_gc fo_dt"
-                                                     : "method dt tolerance adiabaticity",
+                                                       "switch_to_gc fo_dt arithmetic"
+                                                     : "method dt tolerance adiabaticity arithmetic",
                                        err)))
         return rc;
     /* the method's kind says which states a file must hold: read them now */

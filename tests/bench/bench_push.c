@@ -523,8 +523,8 @@ static struct gcp_field *limit_field(enum limit_kind kind)
                                     (const double[3]){0.0, e * ey / en, e * ez / en});
 }
 
-static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p, size_t nb,
-                          double total_steps)
+static double limit_scene_arith(enum limit_kind kind, const struct gcp_pusher_type *p,
+                                size_t nb, double total_steps, int arith)
 {
     struct gcp_field *f = limit_field(kind);
     struct gcp_block b;
@@ -544,6 +544,7 @@ static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p,
             live = gcp_pusher_gc_rk4.advance(&b, f, &gcp_pusher_gc_rk4, &o, NULL);
         } else {
             gcp_block_start(&b, f, 0.0);
+            b.flags = arith ? GCP_BLOCK_FAST_ARITH : 0u;
             live = gcp_block_advance_fo(&b, f, p, 0.0, dt, nsteps, NULL);
         }
         const double t1 = now();
@@ -554,6 +555,12 @@ static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p,
     gcp_block_free(&b);
     gcp_field_free(f);
     return best;
+}
+
+static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p, size_t nb,
+                          double total_steps)
+{
+    return limit_scene_arith(kind, p, nb, total_steps, 0);
 }
 
 /* ---------------------------------------------------------------------------
@@ -617,10 +624,12 @@ static void stream_scene(enum stream_scene sc, size_t n, int reps)
                          &dt);
     gcp_block_start(&b, f, 0.0);
     double t_floor = INFINITY, t_triad = INFINITY, t_push[2] = {INFINITY, INFINITY};
+    double t_fast = INFINITY; /* push PIC with arithmetic = fast (GCP_BLOCK_FAST_ARITH) */
+    const int fast = gcp_arithmetic_fast_available(&gcp_pusher_boris);
     double t = 0.0;
     /* repetition 0 is the warm-up: first touch of every array (page faults) */
     for (int rep = 0; rep <= reps; rep++) {
-        double tk[5];
+        double tk[6];
         tk[0] = cpu_now();
         stream_floor(n, b.x, b.y, b.z, b.ux, b.uy, b.uz, stream_keep_s, stream_keep_d);
         tk[1] = cpu_now();
@@ -635,16 +644,27 @@ static void stream_scene(enum stream_scene sc, size_t n, int reps)
             t += dt;
             if (live != n) fprintf(stderr, "bench_push: %zu of %zu lanes stopped\n", n - live, n);
         }
+        tk[5] = tk[4];
+        if (fast) {
+            b.flags = GCP_BLOCK_CALLER_CLOCK | GCP_BLOCK_FAST_ARITH;
+            const size_t live = gcp_block_advance_fo(&b, f, &gcp_pusher_boris, t, dt, 1, NULL);
+            tk[5] = cpu_now();
+            t += dt;
+            if (live != n) fprintf(stderr, "bench_push: %zu of %zu lanes stopped\n", n - live, n);
+        }
         if (rep == 0) continue;
+        t_fast = fmin(t_fast, tk[5] - tk[4]);
         t_floor = fmin(t_floor, tk[1] - tk[0]);
         t_triad = fmin(t_triad, tk[2] - tk[1]);
         t_push[0] = fmin(t_push[0], tk[3] - tk[2]);
         t_push[1] = fmin(t_push[1], tk[4] - tk[3]);
     }
     const double nn = (double)n;
-    printf("  %-16s %9.3f %9.3f %9.3f %9.3f %9.2f %9.2f %9.2f\n", name[sc], 1e9 * t_floor / nn,
+    printf("  %-16s %9.3f %9.3f %9.3f %9.3f %9.2f %9.2f %9.2f", name[sc], 1e9 * t_floor / nn,
            4e9 * t_triad / nn, 1e9 * t_push[0] / nn, 1e9 * t_push[1] / nn, t_floor / t_push[0],
            t_floor / t_push[1], 4.0 * t_triad / t_push[1]);
+    if (fast) printf(" %9.3f %9.2f", 1e9 * t_fast / nn, t_floor / t_fast);
+    printf("\n");
     sink = b.x[n / 2] + b.Bx[n / 3];
     gcp_block_free(&b);
     gcp_field_free(f);
@@ -657,16 +677,17 @@ static void part_stream(void)
     printf("Issue 12: streaming, gcp_block_advance_fo (boris) one step per call over %zu "
            "particles,\n  against the memory floor of the same run (x, u read + written in "
            "place, 96 B),\n  best of %d, thread CPU time\n", n, reps);
-    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s\n", "", "floor", "triad", "push",
-           "push PIC", "push", "push PIC", "push PIC");
-    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s\n", "field", "96 B", "at 96 B", "", "", "of floor",
-           "of floor", "of triad");
-    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s\n", "", "[ns]", "[ns]", "[ns]", "[ns]", "",
-           "(>=0.80)", "");
+    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "", "floor", "triad", "push",
+           "push PIC", "push", "push PIC", "push PIC", "PIC fast", "PIC fast");
+    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "field", "96 B", "at 96 B", "", "",
+           "of floor", "of floor", "of triad", "", "of floor");
+    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "", "[ns]", "[ns]", "[ns]", "[ns]", "",
+           "(>=0.80)", "", "[ns]", "(>=0.80)");
     for (int sc = STREAM_UNIFORM_B; sc <= STREAM_DIPOLE; sc++)
         stream_scene((enum stream_scene)sc, n, reps);
     printf("  (ns per particle; push: the block keeps each lane's t and steps, 24 B a lane more;\n"
-           "   push PIC: the caller keeps the clock, GCP_BLOCK_CALLER_CLOCK, x and u only)\n\n");
+           "   push PIC: the caller keeps the clock, GCP_BLOCK_CALLER_CLOCK, x and u only;\n"
+           "   PIC fast: the same with arithmetic = fast, GCP_BLOCK_FAST_ARITH, not IEEE rounded)\n\n");
 }
 
 /* fo_only: the full-orbit rows alone (a quick look at the Boris push). */
@@ -678,6 +699,16 @@ static void limit_rows(int fo_only)
                limit_scene(LIMIT_BORIS_UNIFORM, &gcp_pusher_boris, nbs[k], 1e7));
         printf("limit-row boris-dipole %zu %.3f\n", nbs[k],
                limit_scene(LIMIT_BORIS_DIPOLE, &gcp_pusher_boris, nbs[k], 1e7));
+        /* the opt-in fast arithmetic ([integrator] arithmetic = fast:
+         * AVX-512 rsqrt14/rcp14 + 2 Newton steps, not IEEE rounded) */
+        if (gcp_arithmetic_fast_available(&gcp_pusher_boris)) {
+            printf("limit-row boris-uniform-fast %zu %.3f\n", nbs[k],
+                   limit_scene_arith(LIMIT_BORIS_UNIFORM, &gcp_pusher_boris, nbs[k], 1e7,
+                                     1));
+            printf("limit-row boris-dipole-fast %zu %.3f\n", nbs[k],
+                   limit_scene_arith(LIMIT_BORIS_DIPOLE, &gcp_pusher_boris, nbs[k], 1e7,
+                                     1));
+        }
         /* boris-nr: kernel (a)'s own method in its scene (E and B), and with
          * E = 0; in the dipole against (b) (relativistic: more work than ours) */
         printf("limit-row nr-uniform %zu %.3f\n", nbs[k],

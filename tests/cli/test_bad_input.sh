@@ -81,6 +81,14 @@ good | sed 's/^B = .*/B = 0 0 1 V\/m/' > case.run;        expect field-unit '\[f
 good | sed 's/^duration .*/duration = 2 drift/' > case.run; expect no-drift-period 'no drift period'
 good | sed 's/^file = .*/file = no\/such\/dir\/out.h5/' > case.run; expect unwritable "\[output\] file: cannot write 'no/such/dir/out.h5'"
 good | sed 's/^method = boris/method = boris\ntolerance = 1e-9/' > case.run; expect tolerance-fixed 'tolerance applies only to adaptive'
+# [integrator] arithmetic: ieee or fast, fast for full-orbit methods only
+good | sed 's/^method = boris/method = boris\narithmetic = quick/' > case.run
+expect arithmetic-word 'case.run:[0-9]*: \[integrator\] arithmetic: expected ieee or fast'
+good | sed 's/^method = boris/method = gc-rk4\narithmetic = fast/' > case.run
+expect arithmetic-gc 'case.run:[0-9]*: \[integrator\] arithmetic: fast applies only to full-orbit'
+good | sed 's/^method = boris/method = boris\narithmetic = fast/' > case.run
+"$GCPUSH" --quiet case.run || die "arithmetic = fast fails on the reference run file"
+rm -f out.h5
 good | sed 's/^direction .*/pitch = 30 deg/' | sed 's/^position .*/L = 4/' > case.run; expect L-needs-dipole 'L shells need field = dipole'
 good | sed 's/^file = out.h5/file = out.h5\ncompression = 12/' > case.run; expect bad-compression '\[output\] compression: expected none or a deflate level 1..9'
 good | sed '/^\[output\]/,$d' > case.run;                 expect missing-section '\[output\] section is missing'

@@ -124,7 +124,10 @@ rm -f /tmp/layers.$$
 #    so those are refused everywhere.  GCC 12's SLP vectoriser fused them
 #    into tokamak_potential and gc_gauss_wlift.c despite the flag (Makefile:
 #    NOFUSE_OBJ).  Other targets (and the -O1 DEBUG=1 build) have none to find.
-FMA_OK="src/pushers/boris_nr.o src/pushers/fo_step.o"
+#    boris_fast.o is the opt-in fast arithmetic tier (arithmetic = fast): its
+#    explicit _mm512_fmadd/fmsub/fnmadd intrinsics are its arithmetic, never
+#    used by the IEEE path.
+FMA_OK="src/pushers/boris_nr.o src/pushers/fo_step.o src/pushers/boris_fast.o"
 if [ -f "$a" ] && command -v objdump > /dev/null; then
     for o in "$a" $BUILD/src/gcpush.o; do
         [ -f "$o" ] || continue
