@@ -76,8 +76,10 @@
  * update that stops contracting, 40 iterates, an end point not found) is
  * taken by the generic per-lane step (gcp_gl_step_lane) from the same
  * state: the same map, the same failures.  gcp_gl_tokamak_off (tests) sends
- * every push there.  The start-of-step check and the classification are
- * the generic path's (gcp_evolve_gc_check, the evolve layer). */
+ * every push there; gcp_gl_tokamak_extra (tests) iterates that many times
+ * past convergence (the map converged further, to round-off).  The
+ * start-of-step check and the classification are the generic path's
+ * (gcp_evolve_gc_check, the evolve layer). */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
@@ -101,6 +103,7 @@
 #define TGL_XLIN 1e-9
 
 int gcp_gl_tokamak_off = 0;
+int gcp_gl_tokamak_extra = 0;
 
 /* the series' coefficients (fields/tokamak.c's g and h, and j, L) */
 #define TGL_G(k) (1.0 / ((k) + 2))
@@ -303,7 +306,7 @@ tgl_step(const int S, const struct tgl_args *A, struct tgl_lane *l, double mu, d
         for (int i = 0; i < S; i++) K[i][0] = e[0].f[0], K[i][1] = e[0].f[1], w[i][0] = r0, w[i][1] = p0;
     }
     double nprev = INFINITY, thprev = 0.0;
-    int it = 0;
+    int it = 0, past = 0;
     for (;; it++) {
         if (it == TGL_MAXIT) return -1;
         double DF[GL_SMAX][2][2], G[4], Jinv[16], d[4];
@@ -349,7 +352,8 @@ tgl_step(const int S, const struct tgl_args *A, struct tgl_lane *l, double mu, d
         const int floor_next = it > 1 && nd <= TGL_FLOOR && nprev > TGL_FLOOR && thprev < 0.5 &&
                                thprev / (1.0 - thprev) * nd <= 1e-3 * TGL_TOL;
         if (it > 1 && th > 0.5 && !stalled) return -1;
-        if (nd <= TGL_TOL || next_below || stalled || floor_next) break;
+        const int conv = nd <= TGL_TOL || next_below || stalled || floor_next;
+        if ((conv || past) && past++ >= gcp_gl_tokamak_extra) break;
         nprev = nd;
         thprev = th;
     }
