@@ -31,11 +31,12 @@ CSTD     := -std=c11 -D_POSIX_C_SOURCE=200809L -fno-math-errno
 # GCC 12's straight-line (SLP) vectoriser fuses a product feeding an
 # alternating subtract/add pair, (a b - c, d e + f) in two lanes, into one
 # vfmaddsub although -ffp-contract=off (its addsub pattern ignores the flag):
-# tokamak_potential's A = (g x - psi y, g y + psi x) and the 2x2 solve of
-# gc_gauss_wlift.c.  Off in those objects only: everywhere, it cost the
-# eqdsk field 20% (bench_flux DIII-D).  tests/cli/test_layers.sh fails on
-# any other FMA outside the explicit fma() of GCP_NR_FMA_/GCP_NR_CROSS_.
-NOFUSE_OBJ := fields/tokamak.o src/pushers/gc_gauss_wlift.o
+# tokamak_potential's A = (g x - psi y, g y + psi x) and the 2x2 solves of
+# gc_gauss_wlift.c and gc_gauss_tokamak.c.  Off in those objects only:
+# everywhere, it cost the eqdsk field 20% (bench_flux DIII-D).
+# tests/cli/test_layers.sh fails on any other FMA outside the explicit fma()
+# of GCP_NR_FMA_/GCP_NR_CROSS_.
+NOFUSE_OBJ := fields/tokamak.o src/pushers/gc_gauss_wlift.o src/pushers/gc_gauss_tokamak.o
 WARN     := -Wall -Wextra -Werror
 CPPFLAGS += -Iinclude -Isrc -Ifields
 # -fvisibility=hidden: libgcpush.so exports only what the public headers

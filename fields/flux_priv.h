@@ -82,6 +82,17 @@ struct gcp_polchart {
 /* The model's closed-form chart: 0, or GCP_ERR_STATE when it has none. */
 int gcp_field_polchart(const struct gcp_field *f, struct gcp_polchart *out);
 
+/* The analytic tokamak's closed form (fields/tokamak.c), for a pusher that
+ * fuses the algebra of its exact chart (src/pushers/gc_gauss_tokamak.c):
+ * B = B0 R0/R phihat + grad psi x grad phi, psi' (r) = B0 r/q(r),
+ * q(r) = q0 + dq r^2, r the distance to the axis (R0, 0), the plasma r <= a;
+ * the chart of gcp_field_polchart is (r, theta) about (R0, 0).  1 with *out
+ * filled when f is that model, else 0. */
+struct gcp_flux_tokamak {
+    double B0, R0, a, q0, dq; /* [T], [m], [m], [1], [1/m^2] */
+};
+int gcp_field_flux_tokamak(const struct gcp_field *f, struct gcp_flux_tokamak *out);
+
 /* Per-model implementations (dispatched from flux.c). */
 int gcp_tokamak_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]);
 int gcp_tokamak_polchart(const struct gcp_field *f, struct gcp_polchart *out);

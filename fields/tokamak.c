@@ -488,3 +488,11 @@ int gcp_tokamak_polchart(const struct gcp_field *f, struct gcp_polchart *out)
     out->what = "(r, theta) about the magnetic axis";
     return 0;
 }
+
+int gcp_field_flux_tokamak(const struct gcp_field *f, struct gcp_flux_tokamak *out)
+{
+    if (!f || f->type != &gcp_field_tokamak) return 0;
+    const struct tokamak_params *p = f->params;
+    *out = (struct gcp_flux_tokamak){p->B0, p->R0, p->a, p->q0, p->dq};
+    return 1;
+}

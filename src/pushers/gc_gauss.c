@@ -689,6 +689,8 @@ static size_t gl_advance(struct gcp_block *b, const struct gcp_field *f,
     /* the dipole: its closed-form canonical coordinates, fused (gc_gauss_dipole.c) */
     size_t live;
     if (gcp_gl_dipole_advance(b, f, o, s, tab, &live) == 0) return live;
+    /* the analytic tokamak: its chart in closed form, fused (gc_gauss_tokamak.c) */
+    if (gcp_gl_tokamak_advance(b, f, o, s, tab, &live) == 0) return live;
     struct gl_ctx C = {.tab = tab};
     char why[256];
     gcp_gl_ctx_weights(&C);

@@ -210,6 +210,15 @@ int gcp_gl_dipole_advance(struct gcp_block *b, const struct gcp_field *f,
  * lane stops (|s| >= 1, non-finite, or the adiabaticity above amax > 0). */
 int gcp_gl_dipole_stops(double k, double q, double m, double L, double s, double Q, double beta,
                         double amax);
+/* gc-gl2 / gc-gl4 in the analytic tokamak's closed form (gc_gauss_tokamak.c):
+ * 0 with the live lane count in *live when it pushed, -1 when the field is
+ * not that model (gcp_field_flux_tokamak) or gcp_gl_tokamak_off is set
+ * (tests: the generic path then pushes); gcp_gl_tokamak_extra (tests): Newton
+ * iterates past convergence. */
+int gcp_gl_tokamak_advance(struct gcp_block *b, const struct gcp_field *f,
+                           const struct gcp_push_opts *o, const struct gcp_sampler *smp,
+                           const struct gl_tableau *tab, size_t *live);
+extern int gcp_gl_tokamak_off, gcp_gl_tokamak_extra;
 /* gcp_pusher_type.applies of the methods that need a canonical chart. */
 int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
 
