@@ -408,6 +408,8 @@ static struct lr_result long_run(const struct fsys *S, const struct gcp_pusher_t
  * Steps: the issue's 1e7 in both fields (LR_STEPS: 3.9e5 bounces).  Cost
  * per step with the energy and P_phi sampled (CPU, bench_flux, min of 5):
  * gc-gl2 / gc-gl4 2.3 / 3.4 us in the tokamak and 5.5 / 8.4 us in DIII-D
+ * (since then the tokamak's closed-form solve, gc_gauss_tokamak.c, and
+ * DIII-D's analytic Jacobian took them lower: README, bench_flux)
  * (9.0 / 12.8 us before canon_flux_num.c's locate scanned 97 eta nodes by
  * R and Z instead of all 512 through the full map at each of gcp_gc_push's
  * re-entries, one every 256 steps, its table was evaluated in one pass, and
@@ -471,9 +473,13 @@ static void symplectic_long_run(const struct fsys *S, const struct gcp_pusher_ty
 }
 
 /* Tokamak banana.  Measured (1e7 steps, 3.9e5 bounces; ~69 s CPU with the
- * non-symplectic segment): gc-gl2 energy range 9.2e-4, trend 9.0e-7 of it,
- * P_phi 1.1e-13; gc-gl4 1.7e-6, 1.5e-7, 1.7e-13 (5.7e-8, 2.5e-13 with the
- * wlift solver's extra iteration at the floor: round-off).  Over the first 1e6 steps'
+ * non-symplectic segment, before the closed-form solve): gc-gl2 energy range
+ * 9.2e-4, trend 9.0e-7 of it, P_phi 1.1e-13; gc-gl4 1.7e-6, 1.5e-7, 1.7e-13
+ * (5.7e-8, 2.5e-13 with the wlift solver's extra iteration at the floor:
+ * round-off).  With gc_gauss_tokamak.c's closed-form solve (the same map,
+ * converged to round-off rather than to the generic solver's 1e-12 floor):
+ * gc-gl2 trend 9.0e-7, P_phi 1.4e-13; gc-gl4 trend 9.0e-7, P_phi 1.1e-13.
+ * Over the first 1e6 steps'
  * time: gc-rk4 trend 1.0 of its range (2.3e-5), P_phi 2.1e-3; gc-rk45 1.0
  * (2.7e-4), 6.0e-3. */
 Test(gc_symplectic_flux, tokamak_long_run_energy_bounded_pphi_exact, .timeout = 600)
