@@ -48,9 +48,22 @@ struct lane {
     /* full orbit: the gyration in progress is in o->g (struct gcp_fo_gyro) */
     /* stream */
     int have_s1;
-    /* (these up to e2 first: what a stream sample reads and writes, in the
-     * lane's first cache lines -- gcp_obs_fo_records' quiet records touch
-     * little else; 2048 lanes of ~740 bytes are 1.5 MB) */
+    struct gsample s1;
+    double jd1;      /* the J integrand p_par^2 / (gamma m) of s1, computed once */
+    /* half-bounce */
+    int half_valid;  /* began at a mirror point */
+    double J_acc;    /* int p_par v_par dt of the half so far */
+    double eq_Bmin;
+    int eq_need_next, eq_has_prev, eq_valid;
+    struct gsample e0, e1, e2;
+    /* bounce */
+    int nm;          /* mirror points of the bounce in progress (0: none yet) */
+    double tb0, Jb, mub;
+    double lat[2], Bm[2], xm[2][3];
+    /* drift: the contour of equator points, and the contour of the stream
+     * on the cadence (drift-phase crossings for lanes whose equator points
+     * make no turn: invariants_samples.c) */
+    struct contour ceq, cst;
     /* the stream contour's points are recorded (t, X: o->sq) and go into
      * cst only where its rows can be kept (gcp_obs_stream_flush): st_n
      * points recorded in all, the last at st_t; nq of them not yet in cst */
@@ -66,23 +79,6 @@ struct lane {
      * an equator point between them, and it too must get its samples. */
     int had_eq;
     int64_t s_k, d_k;   /* d_k: the stream contour's next grid index */
-    struct gsample s1;
-    double jd1;      /* the J integrand p_par^2 / (gamma m) of s1, computed once */
-    /* half-bounce */
-    int half_valid;  /* began at a mirror point */
-    double J_acc;    /* int p_par v_par dt of the half so far */
-    double mub;      /* the bounce's int mu dt so far */
-    double eq_Bmin;
-    int eq_need_next, eq_has_prev, eq_valid;
-    struct gsample e0, e1, e2;
-    /* bounce */
-    int nm;          /* mirror points of the bounce in progress (0: none yet) */
-    double tb0, Jb;
-    double lat[2], Bm[2], xm[2][3];
-    /* drift: the contour of equator points, and the contour of the stream
-     * on the cadence (drift-phase crossings for lanes whose equator points
-     * make no turn: invariants_samples.c) */
-    struct contour ceq, cst;
 };
 
 /* Full orbit: the gyration in progress of each lane (indexed by the lane's
