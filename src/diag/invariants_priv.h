@@ -174,8 +174,8 @@ struct gcp_observer {
     int64_t ev_begin;     /* out->n at gcp_observer_begin */
     struct gcp_events *out;
     int nomem;
-    /* scratch of gcp_obs_fo_records: X[3], B[3] and the field's verdict of
-     * rcap records */
+    /* scratch of gcp_obs_fo_records: X[3], B[3], p_par, p^2, mu, mid and
+     * the field's verdict of rcap records */
     double *rmem;
     int64_t rcap;
 };
