@@ -98,7 +98,10 @@ static double wrap_eta(double eta)
  * gc-gl4 in DIII-D, bench_flux's orbit); with the generic routines (the
  * kind and the stencil's size read at run time, a call a component) a
  * step of gc-gl2 / gc-gl4 took 11% / 19% more CPU there with the quintic
- * table (6.4 / 10.0 us). */
+ * table (6.4 / 10.0 us).  A_eta's second derivatives only with d3 (the
+ * jets; the map's point has none): order 1 otherwise, the same sums for
+ * the value and first derivatives (gcp_spl2_eval8 / _k: the same numbers),
+ * a third fewer for that component. */
 static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl_out o[3],
                      struct flux_d3 *d3)
 {
@@ -122,11 +125,11 @@ static void num_spl3(const struct gcp_spl *sp, const double x[2], struct gcp_spl
             gcp_spl2_eval8_3(sp->coef[c] + base, s1, w[0], dw[0], ddw[0], dddw[0], w[1], dw[1],
                              ddw[1], dddw[1], &o[c], c ? d3->Z3 : d3->R3);
         else if (sept)
-            gcp_spl2_eval8(sp->coef[c] + base, s1, w[0], dw[0], ddw[0], w[1], dw[1], ddw[1], 2,
-                           &o[c]);
+            gcp_spl2_eval8(sp->coef[c] + base, s1, w[0], dw[0], ddw[0], w[1], dw[1], ddw[1],
+                           c < 2 || d3 ? 2 : 1, &o[c]);
         else
             gcp_spl2_eval_k(6, sp->coef[c] + base, s1, w[0], dw[0], ddw[0], w[1], dw[1], ddw[1],
-                            2, &o[c]);
+                            c < 2 || d3 ? 2 : 1, &o[c]);
     }
 }
 
@@ -207,16 +210,50 @@ static int num_map_field3(const void *ctx, double s, double eta, struct gcp_polc
 
 /* The distance from (R, Z) to the chart's point (rho, eta node j): R and Z
  * alone, the value of the table's spline (num_map's R and Z to the bit: the
- * same weights and sums, without the derivatives, A_eta and psi). */
-static double node_dist(const struct numchart *n, double rho, int j, double R, double Z)
+ * same weights and sums, without the derivatives, A_eta and psi).  For
+ * the septic table inline (spl_inline.h: the same expressions as
+ * gcp_spl_locate / gcp_spl_eval, so the same numbers), rho's cell and
+ * weights (axis 0, the same for every node of the scan) taken once
+ * (node_scan_rho), and one locate for R and Z.  Why: gcp_gl_init maps five points through to_canon
+ * every 256 steps of gcp_gc_push, ~100 node distances each; through the
+ * generic routines (the kind and order read at run time, a locate a
+ * component) they were 3.6% of gc-gl2's CPU a step in DIII-D
+ * (bench_flux). */
+struct node_scan {
+    int sept;      /* the table is the 2D septic (the inline path) */
+    size_t off0;   /* axis 0's cell offset */
+    double w0[8];  /* axis 0's weights at rho */
+};
+
+static void node_scan_rho(const struct numchart *n, double rho, struct node_scan *ns)
+{
+    ns->sept = n->spl.kind == GCP_SPL_SEPTIC && n->spl.nd == 2;
+    if (!ns->sept) return;
+    double t, dw[8], ddw[8];
+    gcp_spl_cell(&n->spl, 0, rho, &ns->off0, &t);
+    gcp_spl_w7(t, n->spl.inv_h[0], 0, ns->w0, dw, ddw);
+}
+
+static double node_dist(const struct numchart *n, const struct node_scan *ns, double rho, int j,
+                        double R, double Z)
 {
     const double ej = -GCP_PI + 2.0 * GCP_PI * j / NETA;
     const double x[2] = {rho, wrap_eta(ej)};
-    struct gcp_spl_loc loc;
     struct gcp_spl_out oR, oZ;
-    gcp_spl_locate(&n->spl, x, 0, &loc);
-    gcp_spl_eval(&n->spl, &loc, 0, 0, &oR);
-    gcp_spl_eval(&n->spl, &loc, 1, 0, &oZ);
+    if (ns->sept) {
+        size_t off1;
+        double t, w1[8], dw[8], ddw[8];
+        gcp_spl_cell(&n->spl, 1, x[1], &off1, &t);
+        gcp_spl_w7(t, n->spl.inv_h[1], 0, w1, dw, ddw);
+        const size_t base = ns->off0 + off1, s1 = n->spl.stride[1];
+        gcp_spl2_eval8(n->spl.coef[0] + base, s1, ns->w0, dw, ddw, w1, dw, ddw, 0, &oR);
+        gcp_spl2_eval8(n->spl.coef[1] + base, s1, ns->w0, dw, ddw, w1, dw, ddw, 0, &oZ);
+    } else {
+        struct gcp_spl_loc loc;
+        gcp_spl_locate(&n->spl, x, 0, &loc);
+        gcp_spl_eval(&n->spl, &loc, 0, 0, &oR);
+        gcp_spl_eval(&n->spl, &loc, 1, 0, &oZ);
+    }
     return hypot(oR.f - R, oZ.f - Z);
 }
 
@@ -243,8 +280,10 @@ static int num_locate(const void *ctx, double R, double Z, double *s, double *et
     if (!(psiN <= PSIN_MAX)) return GCP_LEFT_DOMAIN;
     double rho = sqrt(fmax(psiN, 0.0)), best = INFINITY;
     int jc = 0, jb = 0;
+    struct node_scan ns;
+    node_scan_rho(n, rho, &ns);
     for (int j = 0; j < NETA; j += NSCAN) {
-        const double dd = node_dist(n, rho, j, R, Z);
+        const double dd = node_dist(n, &ns, rho, j, R, Z);
         if (dd < best) best = dd, jc = j;
     }
     /* the window in ascending node order (the first of equal distances, as
@@ -252,7 +291,7 @@ static int num_locate(const void *ctx, double R, double Z, double *s, double *et
     best = INFINITY;
     for (int a = 0; a <= 4 * NSCAN; a++) {
         const int j = (jc - 2 * NSCAN + a + NETA) % NETA;
-        const double dd = node_dist(n, rho, j, R, Z);
+        const double dd = node_dist(n, &ns, rho, j, R, Z);
         if (dd < best || (dd == best && j < jb)) best = dd, jb = j;
     }
     /* (no finite distance: eta = 0, as the full scan left it) */

@@ -65,6 +65,7 @@ struct gl_lane {
     double hJ;                  /* step of the kept Jacobian */
     int have_DF;                /* [bool] DF, DFp, Jinv are the last accepted wlift step's, at step hDF */
     double hDF;
+    double wv[GL_SMAX][2];      /* the last wlift step's stage points' dw/dt times h (with have_DF) */
     double t;                   /* [s] physical time (advanced by the step) */
     double pt;                  /* [J] p_t = -H(z0) (Sundman: extended phase space) */
     double Bref;                /* [T] |B| at the start (Sundman: w = 1 there) */
