@@ -106,4 +106,24 @@ int gcp_grid_psi_RZ(const struct gcp_field *f, double R, double Z, double out[6]
 int gcp_grid_psi_lattice(const struct gcp_field *f, double x0[2], double h[2], size_t n[2]);
 int gcp_grid_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za, double *pe);
 
+/* sum_k c[k] t^k, k < 32, by Estrin's scheme (pairs, then pairs of pairs
+ * with t^2, t^4, t^8, t^16): five dependent multiply-adds where Horner's
+ * rule chains 32 (the tokamak's A_theta series was its chart map's
+ * latency); the rounding is Horner's order of magnitude (|t| < 1/4, terms
+ * falling).  One copy for fields/tokamak.c and the pushers' closed-form
+ * tokamak solve (src/pushers/gc_gauss_tokamak.c), which must agree. */
+static inline __attribute__((always_inline)) double gcp_estrin32(const double c[32], double t)
+{
+    double a[16];
+    const double t2 = t * t, t4 = t2 * t2, t8 = t4 * t4, t16 = t8 * t8;
+    for (int i = 0; i < 16; i++) a[i] = c[2 * i] + c[2 * i + 1] * t;
+    for (int i = 0; i < 8; i++) a[i] = a[2 * i] + a[2 * i + 1] * t2;
+    for (int i = 0; i < 4; i++) a[i] = a[2 * i] + a[2 * i + 1] * t4;
+    for (int i = 0; i < 2; i++) a[i] = a[2 * i] + a[2 * i + 1] * t8;
+    return a[0] + a[1] * t16;
+}
+/* The 32 coefficients F(0) .. F(31) of such a series, as an initialiser. */
+#define GCP_SERIES_8(F, k) F(k), F(k + 1), F(k + 2), F(k + 3), F(k + 4), F(k + 5), F(k + 6), F(k + 7)
+#define GCP_SERIES_32(F) GCP_SERIES_8(F, 0), GCP_SERIES_8(F, 8), GCP_SERIES_8(F, 16), GCP_SERIES_8(F, 24)
+
 #endif

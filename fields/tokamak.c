@@ -403,30 +403,13 @@ int gcp_tokamak_flux_surfaces(const struct gcp_field *f, double *Ra, double *Za,
  * divisions, most of the chart map's time in the tokamak). */
 #define TOK_G1(k) (1.0 / ((k) + 2))
 #define TOK_H1(k) ((double)((k) + 1) / ((k) + 3))
-#define TOK_8(F, k) F(k), F(k + 1), F(k + 2), F(k + 3), F(k + 4), F(k + 5), F(k + 6), F(k + 7)
-#define TOK_32(F) TOK_8(F, 0), TOK_8(F, 8), TOK_8(F, 16), TOK_8(F, 24)
-static const double tok_gc[32] = {TOK_32(TOK_G1)}, tok_hc[32] = {TOK_32(TOK_H1)};
-
-/* sum_k c[k] t^k, k < 32, by Estrin's scheme (pairs, then pairs of pairs
- * with t^2, t^4, t^8, t^16): five dependent multiply-adds where Horner's
- * rule chains 32 (the series was the chart map's latency in the tokamak);
- * the rounding is Horner's order of magnitude (|t| < 1/4, terms falling). */
-static inline double tok_estrin32(const double c[32], double t)
-{
-    double a[16];
-    const double t2 = t * t, t4 = t2 * t2, t8 = t4 * t4, t16 = t8 * t8;
-    for (int i = 0; i < 16; i++) a[i] = c[2 * i] + c[2 * i + 1] * t;
-    for (int i = 0; i < 8; i++) a[i] = a[2 * i] + a[2 * i + 1] * t2;
-    for (int i = 0; i < 4; i++) a[i] = a[2 * i] + a[2 * i + 1] * t4;
-    for (int i = 0; i < 2; i++) a[i] = a[2 * i] + a[2 * i + 1] * t8;
-    return a[0] + a[1] * t16;
-}
+static const double tok_gc[32] = {GCP_SERIES_32(TOK_G1)}, tok_hc[32] = {GCP_SERIES_32(TOK_H1)};
 
 static void tok_gh(double x, double *g, double *h)
 {
     if (fabs(x) < 0.25) {
-        *g = tok_estrin32(tok_gc, -x);
-        *h = tok_estrin32(tok_hc, -x);
+        *g = gcp_estrin32(tok_gc, -x);
+        *h = gcp_estrin32(tok_hc, -x);
         return;
     }
     const double l = log1p(x);

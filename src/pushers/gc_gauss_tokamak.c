@@ -110,22 +110,8 @@ int gcp_gl_tokamak_extra = 0;
 #define TGL_H(k) ((double)((k) + 1) / ((k) + 3))
 #define TGL_J(k) ((double)(((k) + 1) * ((k) + 2)) / (2 * ((k) + 4)))
 #define TGL_L(k) (1.0 / ((k) + 1))
-#define TGL_8(F, k) F(k), F(k + 1), F(k + 2), F(k + 3), F(k + 4), F(k + 5), F(k + 6), F(k + 7)
-#define TGL_32(F) TGL_8(F, 0), TGL_8(F, 8), TGL_8(F, 16), TGL_8(F, 24)
-static const double tgl_gc[32] = {TGL_32(TGL_G)}, tgl_hc[32] = {TGL_32(TGL_H)};
-static const double tgl_jc[32] = {TGL_32(TGL_J)}, tgl_lc[32] = {TGL_32(TGL_L)};
-
-/* fields/tokamak.c tok_estrin32: sum c[k] t^k by Estrin's scheme */
-static inline __attribute__((always_inline)) double tgl_estrin32(const double c[32], double t)
-{
-    double a[16];
-    const double t2 = t * t, t4 = t2 * t2, t8 = t4 * t4, t16 = t8 * t8;
-    for (int i = 0; i < 16; i++) a[i] = c[2 * i] + c[2 * i + 1] * t;
-    for (int i = 0; i < 8; i++) a[i] = a[2 * i] + a[2 * i + 1] * t2;
-    for (int i = 0; i < 4; i++) a[i] = a[2 * i] + a[2 * i + 1] * t4;
-    for (int i = 0; i < 2; i++) a[i] = a[2 * i] + a[2 * i + 1] * t8;
-    return a[0] + a[1] * t16;
-}
+static const double tgl_gc[32] = {GCP_SERIES_32(TGL_G)}, tgl_hc[32] = {GCP_SERIES_32(TGL_H)};
+static const double tgl_jc[32] = {GCP_SERIES_32(TGL_J)}, tgl_lc[32] = {GCP_SERIES_32(TGL_L)};
 
 /* fixed for the push */
 struct tgl_args {
@@ -176,11 +162,11 @@ tgl_eval(const struct tgl_args *A, const int mode, double th, double r, double p
     const double k = B0R0 * R * iN, kr = B0R0 * (c * iN + R * m1r), kt = -B0R0 * r * sn * iN;
     const double hh = Y * r * iN, hr = (Yr * r + Y) * iN + Y * r * m1r;
     const double u = r / A->R0, x = u * c;
-    const double gs = tgl_estrin32(tgl_gc, -x), hs = tgl_estrin32(tgl_hc, -x);
+    const double gs = gcp_estrin32(tgl_gc, -x), hs = gcp_estrin32(tgl_hc, -x);
     const double Ath = -B0R0 * A->R0 * u * u * gs;
     const double Ar = -B0R0 * r * iR, At = -B0R0 * A->R0 * u * u * u * sn * hs;
     const double dr2 = (r - r0) * (r + r0), ep = A->dq * dr2 * iq0;
-    const double dpsi = 0.5 * B0 * dr2 * iq0 * tgl_estrin32(tgl_lc, -ep);
+    const double dpsi = 0.5 * B0 * dr2 * iq0 * gcp_estrin32(tgl_lc, -ep);
     e->res0 = P0r - (qc * dpsi + p * k);
     e->res1 = Pt - (qc * Ath + p * hh);
     const double G00 = qc * Y + p * kr, G01 = k, G10 = qc * Ar + p * hr, G11 = hh;
@@ -210,7 +196,7 @@ tgl_eval(const struct tgl_args *A, const int mode, double th, double r, double p
     const double hrr = (Yrr * r + 2.0 * Yr) * iN + 2.0 * (Yr * r + Y) * m1r + Y * r * m1rr;
     const double iR2 = iR * iR, u3 = u * u * u;
     const double Arr = -B0R0 * A->R0 * iR2, Art = -B0R0 * r2 * sn * iR2;
-    const double I2 = A->R0 * u3 * hs, I3 = A->R0 * u3 * u * tgl_estrin32(tgl_jc, -x);
+    const double I2 = A->R0 * u3 * hs, I3 = A->R0 * u3 * u * gcp_estrin32(tgl_jc, -x);
     const double Att = -B0R0 * (c * I2 + 2.0 * sn * sn * I3);
     const double Bmrr = (Nrr - 2.0 * c * Bmr) * iR;
     const double Bmrt = (Bm * sn + Bmr * r * sn - Bmt * c) * iR;
