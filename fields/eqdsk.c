@@ -414,11 +414,9 @@ static inline void eqdsk_F(const struct eqdsk_params *e, double psi, double Z, d
  * SLP complex multiply with vfmaddsub, a contraction despite
  * -ffp-contract=off, and changed B's last bits. */
 static inline __attribute__((always_inline)) void
-eqdsk_B_of(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R, double Z, double c,
-           double sn, int grad, struct gcp_field_sample *s)
+eqdsk_B_ofF(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R, double F,
+            double dF, double c, double sn, int grad, struct gcp_field_sample *s)
 {
-    double F, dF;
-    eqdsk_F(e, o->f, Z, &F, &dF);
     const double iR = 1.0 / R, sp = e->s_pol, st = e->s_tor;
     double b[3], dR[3] = {0}, dZ[3] = {0};
     b[0] = -sp * o->d[1] * iR;
@@ -434,6 +432,16 @@ eqdsk_B_of(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R, 
     }
     gcp_axi_to_cart(c, sn, R, b, dR, dZ, s->B, s->gradB, grad);
     if (s->need & GCP_NEED_E) s->E[0] = s->E[1] = s->E[2] = 0.0;
+}
+
+/* eqdsk_B_ofF with F, dF/dpsi from the profile at psi = o->f. */
+static inline __attribute__((always_inline)) void
+eqdsk_B_of(const struct eqdsk_params *e, const struct gcp_spl_out *o, double R, double Z, double c,
+           double sn, int grad, struct gcp_field_sample *s)
+{
+    double F, dF;
+    eqdsk_F(e, o->f, Z, &F, &dF);
+    eqdsk_B_ofF(e, o, R, F, dF, c, sn, grad, s);
 }
 
 static int eqdsk_eval(const struct gcp_field *f, double t, const double x[3],
@@ -654,11 +662,12 @@ int gcp_field_psi_B_RZ3(const struct gcp_field *f, double R, double Z, double ou
     gcp_spl2_eval8_3(e->psi.coef[0] + base, e->psi.stride[1], w[0], dw[0], ddw[0], dddw[0], w[1],
                      dw[1], ddw[1], dddw[1], &o, d3);
     psi_out(e->s_pol, &o, out);
-    s->need = GCP_NEED_B | GCP_NEED_GRADB;
-    eqdsk_B_of(e, &o, R, Z, c, sn, 1, s);
     *fst = outside ? GCP_LEFT_GRID : 0;
-    /* F(psi) with dF/dpsi, d2F/dpsi2 (file's psi), the edge value outside */
-    double F = e->F_edge, F1 = 0.0, F2 = 0.0;
+    /* F(psi) with dF/dpsi, d2F/dpsi2 (file's psi), the edge value outside:
+     * one evaluation of the profile for B, grad B and Bd (eqdsk_B_of would
+     * evaluate it again); dFB is dF/dpsi rounded as eqdsk_F rounds it, so
+     * B and grad B are the same numbers as gcp_eqdsk_psi_B_RZ's */
+    double F = e->F_edge, F1 = 0.0, F2 = 0.0, dFB = 0.0;
     const double psiN = (o.f - e->info.simag) / e->dpsi;
     if (!(psiN > 1.0 || Z < e->info.zbmin || Z > e->info.zbmax)) {
         /* eqdsk_prof7 with the second derivative (the same cell and weights) */
@@ -677,7 +686,10 @@ int gcp_field_psi_B_RZ3(const struct gcp_field *f, double R, double Z, double ou
         F = c0 + f0;
         F1 = f1 * du;
         F2 = f2 * du * du;
+        dFB = f1 * sp->h[0] * sc / e->dpsi;
     }
+    s->need = GCP_NEED_B | GCP_NEED_GRADB;
+    eqdsk_B_ofF(e, &o, R, F, dFB, c, sn, 1, s);
     const double pR = o.d[0], pZ = o.d[1];
     const double wR[6] = {o.d[1], o.dd[0][1], o.dd[1][1], d3[1], d3[2], d3[3]}; /* psi_Z */
     const double wZ[6] = {o.d[0], o.dd[0][0], o.dd[0][1], d3[0], d3[1], d3[2]}; /* psi_R */

@@ -93,8 +93,11 @@ static double dir_deriv(const double G[3][3], const double b[3], double Bm, doub
 struct fjets;
 static void fjets_of(const struct gcp_polchart_pt *g, const struct flux_d3 *d3, struct fjets *j);
 
-static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o,
-                      struct fjets *j)
+/* With pos (from_canon's inversion: P, dP/dw and X only), the eta
+ * derivatives, d|B|/ds and h_res are not formed (left NaN). */
+static inline __attribute__((always_inline)) int
+fgeom_eval_(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o,
+            struct fjets *j, int pos)
 {
     struct gcp_polchart_pt g;
     struct gcp_field_sample fs = {.need = GCP_NEED_B | GCP_NEED_GRADB};
@@ -116,7 +119,6 @@ static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, stru
     const double b[3] = {fs.B[0] / Bm, fs.B[1] / Bm, fs.B[2] / Bm};
     double dbs[3], dbe[3];
     o->dBs = dir_deriv(fs.gradB, b, Bm, g.R_s, g.Z_s, dbs);
-    o->dBe = dir_deriv(fs.gradB, b, Bm, g.R_e, g.Z_e, dbe);
     o->Bm = Bm;
     o->R = g.R, o->Z = g.Z, o->R_s = g.R_s, o->Z_s = g.Z_s;
     o->psi = g.psi, o->psi_s = g.psi_s, o->psi_e = g.psi_e;
@@ -124,13 +126,24 @@ static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, stru
     /* k = F/|B| = R b_phi;  h = b . X_e */
     o->k = g.R * b[1];
     o->k_s = g.R_s * b[1] + g.R * dbs[1];
-    o->k_e = g.R_e * b[1] + g.R * dbe[1];
     o->h = b[0] * g.R_e + b[2] * g.Z_e;
     o->h_s = dbs[0] * g.R_e + dbs[2] * g.Z_e + b[0] * g.R_se + b[2] * g.Z_se;
+    if (pos) {
+        o->dBe = o->k_e = o->h_e = o->h_res = o->psi_e = o->A_e = NAN;
+        return st;
+    }
+    o->dBe = dir_deriv(fs.gradB, b, Bm, g.R_e, g.Z_e, dbe);
+    o->k_e = g.R_e * b[1] + g.R * dbe[1];
     o->h_e = dbe[0] * g.R_e + dbe[2] * g.Z_e + b[0] * g.R_ee + b[2] * g.Z_ee;
     o->h_res = b[0] * g.R_s + b[2] * g.Z_s;
     if (j) fjets_of(&g, &d3, j);
     return st;
+}
+
+static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, struct fgeom *o,
+                      struct fjets *j)
+{
+    return fgeom_eval_(c, s, eta, o, j, 0);
 }
 
 /* The momenta, their derivatives and H at the geometry g with p_par = p. */
@@ -161,6 +174,28 @@ static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_const
     const int st = fgeom_eval(c, s, eta, &o->g, NULL);
     if (st == GCP_STEP_FAILED) return st;
     fpoint_at(k, p, o);
+    return st;
+}
+
+/* fpoint_eval for from_canon's inversion (flux_solve with xlin): P, dP/dw,
+ * X, X_s and pscale, the same numbers; H, its derivatives and dP/deta,
+ * which the inversion does not read, not formed (NaN).  ~2% of a gc-gl2
+ * step in DIII-D (bench_flux) went to them: two evaluations a step. */
+static int fpoint_eval_pos(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k,
+                           double s, double eta, double p, struct fpoint *o)
+{
+    const int st = fgeom_eval_(c, s, eta, &o->g, NULL, 1);
+    if (st == GCP_STEP_FAILED) return st;
+    const struct fgeom *g = &o->g;
+    const double q = k->q;
+    o->P[0] = q * g->psi + p * g->k;
+    o->P[1] = q * g->A + p * g->h;
+    o->Gw[0][0] = q * g->psi_s + p * g->k_s;
+    o->Gw[0][1] = g->k;
+    o->Gw[1][0] = q * g->A_s + p * g->h_s;
+    o->Gw[1][1] = g->h;
+    o->Ge[0] = o->Ge[1] = o->H = o->Hw[0] = o->Hw[1] = o->He = NAN;
+    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * g->Bm);
     return st;
 }
 
@@ -243,7 +278,7 @@ static int flux_solve(const struct gcp_flux_chart *c, const struct gcp_gc_consts
     double eprev = INFINITY, s1 = s, p1 = p;
     struct fpoint prev = {0};
     for (int it = 0; it < 60; it++) {
-        const int st = fpoint_eval(c, k, s, z[1], p, o);
+        const int st = xlin ? fpoint_eval_pos(c, k, s, z[1], p, o) : fpoint_eval(c, k, s, z[1], p, o);
         const double r0 = o->P[0] - z[2], r1 = o->P[1] - z[3];
         const double det = o->Gw[0][0] * o->Gw[1][1] - o->Gw[0][1] * o->Gw[1][0];
         if (!(det != 0.0) || !isfinite(det)) return GCP_STEP_FAILED;
