@@ -146,8 +146,9 @@ static int fgeom_eval(const struct gcp_flux_chart *c, double s, double eta, stru
     return fgeom_eval_(c, s, eta, o, j, 0);
 }
 
-/* The momenta, their derivatives and H at the geometry g with p_par = p. */
-static void fpoint_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
+/* The momenta P, dP/dw and pscale at the geometry g with p_par = p: what
+ * from_canon's inversion reads (fpoint_eval_pos). */
+static inline void fpoint_pos_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
 {
     const struct fgeom *g = &o->g;
     const double q = k->q;
@@ -157,6 +158,15 @@ static void fpoint_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
     o->Gw[0][1] = g->k;
     o->Gw[1][0] = q * g->A_s + p * g->h_s;
     o->Gw[1][1] = g->h;
+    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * g->Bm);
+}
+
+/* The momenta, their derivatives and H at the geometry g with p_par = p. */
+static void fpoint_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
+{
+    const struct fgeom *g = &o->g;
+    const double q = k->q;
+    fpoint_pos_at(k, p, o);
     o->Ge[0] = q * g->psi_e + p * g->k_e;
     o->Ge[1] = q * g->A_e + p * g->h_e;
     const double gam = gcp_gc_gamma(p, k->mu, g->Bm, k->m);
@@ -165,7 +175,6 @@ static void fpoint_at(const struct gcp_gc_consts *k, double p, struct fpoint *o)
     o->Hw[0] = HB * g->dBs;
     o->Hw[1] = p / (gam * k->m);
     o->He = HB * g->dBe;
-    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * g->Bm);
 }
 
 static int fpoint_eval(const struct gcp_flux_chart *c, const struct gcp_gc_consts *k, double s,
@@ -186,16 +195,8 @@ static int fpoint_eval_pos(const struct gcp_flux_chart *c, const struct gcp_gc_c
 {
     const int st = fgeom_eval_(c, s, eta, &o->g, NULL, 1);
     if (st == GCP_STEP_FAILED) return st;
-    const struct fgeom *g = &o->g;
-    const double q = k->q;
-    o->P[0] = q * g->psi + p * g->k;
-    o->P[1] = q * g->A + p * g->h;
-    o->Gw[0][0] = q * g->psi_s + p * g->k_s;
-    o->Gw[0][1] = g->k;
-    o->Gw[1][0] = q * g->A_s + p * g->h_s;
-    o->Gw[1][1] = g->h;
+    fpoint_pos_at(k, p, o);
     o->Ge[0] = o->Ge[1] = o->H = o->Hw[0] = o->Hw[1] = o->He = NAN;
-    o->pscale = fabs(p) + sqrt(2.0 * k->m * fabs(k->mu) * g->Bm);
     return st;
 }
 

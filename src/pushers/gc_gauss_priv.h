@@ -223,4 +223,35 @@ extern int gcp_gl_tokamak_off, gcp_gl_tokamak_extra;
 /* gcp_pusher_type.applies of the methods that need a canonical chart. */
 int gcp_gc_canon_applies(const struct gcp_field *f, char *why, size_t whylen);
 
+/* The end point's guess pe at t = h (units of h: nodes 0 and c_i): the
+ * polynomial of degree 2s through w0 at 0 and w_i, v_i (slopes times h) at
+ * c_i (Hermite), by its Newton form on the confluent nodes 0, c_1, c_1, ...
+ * (divided differences).  The lifted solve's (gc_gauss_wlift.c) and the
+ * closed-form tokamak's (gc_gauss_tokamak.c), which must agree. */
+static inline void gcp_gl_end_guess(const struct gl_tableau *T, const double w0[2],
+                                    const double w[GL_SMAX][2], const double v[GL_SMAX][2],
+                                    double pe[2])
+{
+    const int s = T->s, m = 2 * s + 1;
+    double x[2 * GL_SMAX + 1];
+    x[0] = 0.0;
+    for (int i = 0; i < s; i++) x[1 + 2 * i] = x[2 + 2 * i] = T->c[i];
+    for (int r = 0; r < 2; r++) {
+        double dd[2 * GL_SMAX + 1]; /* the divided-difference table, column by column */
+        dd[0] = w0[r];
+        for (int i = 0; i < s; i++) dd[1 + 2 * i] = dd[2 + 2 * i] = w[i][r];
+        double coef[2 * GL_SMAX + 1];
+        coef[0] = dd[0];
+        for (int l = 1; l < m; l++) {
+            for (int a = m - 1; a >= l; a--) /* a confluent pair takes the slope */
+                dd[a] = x[a] == x[a - l] ? v[(a - 1) / 2][r]
+                                         : (dd[a] - dd[a - 1]) / (x[a] - x[a - l]);
+            coef[l] = dd[l];
+        }
+        double acc = coef[m - 1];
+        for (int l = m - 2; l >= 0; l--) acc = coef[l] + (1.0 - x[l]) * acc;
+        pe[r] = acc;
+    }
+}
+
 #endif

@@ -60,7 +60,7 @@
  * contraction predicting the next below 1e-18, or stalled at the 1e-12
  * floor (gc_gauss_wlift.c's tests, constants and order).  The end point
  * (r, p) at (theta_1, P_theta_1) by Newton from the Hermite guess through
- * the stage points (glw_end_guess), the last step below 1e-9 taken without
+ * the stage points (gcp_gl_end_guess), the last step below 1e-9 taken without
  * a new evaluation (canon_flux.c flux_solve's xlin: R, Z are linear in r).
  * phi and theta are not wrapped differently from gc_gauss.c: phi into
  * [-pi, pi] as gcp_gl_end_state, theta free.
@@ -239,31 +239,6 @@ static double tgl_psi(const struct tgl_args *A, double r)
     return A->B0 * r2 / (2.0 * A->q0) * lv;
 }
 
-/* gc_gauss_wlift.c glw_end_guess: the Hermite polynomial through w0 (node 0)
- * and w_i with slopes v_i (times h) at c_i, at node 1. */
-static void tgl_end_guess(const struct gl_tableau *T, const double w0[2],
-                          const double w[GL_SMAX][2], const double v[GL_SMAX][2], double pe[2])
-{
-    const int s = T->s, m = 2 * s + 1;
-    double x[2 * GL_SMAX + 1];
-    x[0] = 0.0;
-    for (int i = 0; i < s; i++) x[1 + 2 * i] = x[2 + 2 * i] = T->c[i];
-    for (int r = 0; r < 2; r++) {
-        double dd[2 * GL_SMAX + 1], coef[2 * GL_SMAX + 1];
-        dd[0] = w0[r];
-        for (int i = 0; i < s; i++) dd[1 + 2 * i] = dd[2 + 2 * i] = w[i][r];
-        coef[0] = dd[0];
-        for (int l = 1; l < m; l++) {
-            for (int a = m - 1; a >= l; a--)
-                dd[a] = x[a] == x[a - l] ? v[(a - 1) / 2][r] : (dd[a] - dd[a - 1]) / (x[a] - x[a - l]);
-            coef[l] = dd[l];
-        }
-        double acc = coef[m - 1];
-        for (int l = m - 2; l >= 0; l--) acc = coef[l] + (1.0 - x[l]) * acc;
-        pe[r] = acc;
-    }
-}
-
 /* One step of lane l (magnetic moment mu): 0 with l advanced and the end
  * point X, p_par, or -1 with l untouched (the generic path takes it). */
 static inline __attribute__((always_inline)) int
@@ -354,7 +329,7 @@ tgl_step(const int S, const struct tgl_args *A, struct tgl_lane *l, double mu, d
     else phi1 = remainder(phi, tp);
     const double th1 = th0 + h * de, P1 = P0 + h * dP;
     /* the end point: the Hermite guess, then Newton on the chart */
-    double v[GL_SMAX][2], pe[2];
+    double v[GL_SMAX][2] = {{0.0}}, pe[2]; /* rows past S unread (T->s == S) */
     for (int i = 0; i < S; i++) {
         const double (*Gw)[2] = e[i].Gw;
         const double b0 = -e[i].Ge[0] * K[i][0], b1 = K[i][1] - e[i].Ge[1] * K[i][0];
@@ -363,7 +338,7 @@ tgl_step(const int S, const struct tgl_args *A, struct tgl_lane *l, double mu, d
         v[i][1] = h * ((-Gw[1][0] * b0 + Gw[0][0] * b1) / det);
     }
     const double w0[2] = {r0, p0};
-    tgl_end_guess(T, w0, w, v, pe);
+    gcp_gl_end_guess(T, w0, w, v, pe);
     if (!(pe[0] > 0.0 && isfinite(pe[1]))) pe[0] = w[S - 1][0], pe[1] = w[S - 1][1];
     double r1 = pe[0], p1 = pe[1];
     for (int k = 0;; k++) {

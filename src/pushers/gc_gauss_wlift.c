@@ -87,6 +87,16 @@
  * scale); measured below 1e-13 in the tokamak and DIII-D. */
 #define GLW_FLOOR 1e-12
 
+/* The rates of a stage sample o: g = (d eta, d P_eta) = (dH/dP_eta,
+ * -dH/deta), qd = (d phi, d t) = (dH/dP_phi, 1). */
+static inline void glw_rates(const struct gcp_canon_wpoint *o, double g[2], double qd[2])
+{
+    g[0] = o->dH[3];
+    g[1] = -o->dH[1];
+    qd[0] = o->dH[2];
+    qd[1] = 1.0;
+}
+
 /* Stage at (eta, w): sample o, rates g = (d eta, d P_eta) and qd = (d phi, d t). */
 static int glw_stage(const struct gl_ctx *C, const struct gcp_gc_consts *k, double eta,
                      const double w[2], const struct gcp_canon_wpoint *same,
@@ -94,10 +104,7 @@ static int glw_stage(const struct gl_ctx *C, const struct gcp_gc_consts *k, doub
 {
     const int st = C->chart.wlift_eval(&C->chart, k, eta, w, same, o);
     if (st) return st;
-    g[0] = o->dH[3];
-    g[1] = -o->dH[1];
-    qd[0] = o->dH[2];
-    qd[1] = 1.0;
+    glw_rates(o, g, qd);
     return 0;
 }
 
@@ -108,10 +115,7 @@ static int glw_stage_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, d
 {
     const int st = C->chart.wlift_eval_df(&C->chart, k, eta, w, o, Fw, Fe, have);
     if (st) return st;
-    g[0] = o->dH[3];
-    g[1] = -o->dH[1];
-    qd[0] = o->dH[2];
-    qd[1] = 1.0;
+    glw_rates(o, g, qd);
     return 0;
 }
 
@@ -165,38 +169,6 @@ static int glw_df(const struct gl_ctx *C, const struct gcp_gc_consts *k, struct 
     return glw_df_set(L, i, o, Fw, Fe);
 }
 
-/* The end point's guess pe at t = h (units of h: nodes 0 and c_i): the
- * polynomial of degree 2s through w0 at 0 and w_i, v_i (slopes times h) at
- * c_i (Hermite), by its Newton form on the confluent nodes 0, c_1, c_1, ...
- * (divided differences). */
-static void glw_end_guess(const struct gl_tableau *T, const double w0[2],
-                          const double w[GL_SMAX][2], const double v[GL_SMAX][2], double pe[2])
-{
-    const int s = T->s, m = 2 * s + 1;
-    double x[2 * GL_SMAX + 1];
-    x[0] = 0.0;
-    for (int i = 0; i < s; i++) x[1 + 2 * i] = x[2 + 2 * i] = T->c[i];
-    for (int r = 0; r < 2; r++) {
-        double dd[2 * GL_SMAX + 1]; /* the divided-difference table, column by column */
-        dd[0] = w0[r];
-        for (int i = 0; i < s; i++) dd[1 + 2 * i] = dd[2 + 2 * i] = w[i][r];
-        double coef[2 * GL_SMAX + 1];
-        coef[0] = dd[0];
-        for (int l = 1; l < m; l++) {
-            for (int a = m - 1; a >= l; a--) {
-                if (x[a] == x[a - l]) /* confluent pair: the slope */
-                    dd[a] = v[(a - 1) / 2][r];
-                else
-                    dd[a] = (dd[a] - dd[a - 1]) / (x[a] - x[a - l]);
-            }
-            coef[l] = dd[l];
-        }
-        double acc = coef[m - 1];
-        for (int l = m - 2; l >= 0; l--) acc = coef[l] + (1.0 - x[l]) * acc;
-        pe[r] = acc;
-    }
-}
-
 /* The polynomial through m nodes x (ascending; a repeated node carries the
  * derivative dv there, Hermite) with values v, at t, each component: its
  * Newton form by divided differences on the confluent nodes. */
@@ -230,7 +202,7 @@ static void glw_hermite(int m, const double *x, const double (*v)[2], const doub
  *    at the stage: the flow's), a cubic, error O(h^4) (gcp_gl_predict's
  *    quadratic: O(h^3));
  *  s = 2: the stage points w through the last two steps' (c_j - 2, c_j - 1)
- *    and the start w0, with the last step's slopes dw/dt (glw_end_guess's
+ *    and the start w0, with the last step's slopes dw/dt (gcp_gl_end_guess's
  *    v_j), degree 6 (gcp_gl_points_extrap's, values only: 4).
  * Measured on bench_flux's DIII-D orbit: iterations a step 3.80 -> 3.69
  * (gc-gl2) and 3.74 -> 3.53 (gc-gl4); the other way round each was worse
@@ -381,7 +353,7 @@ int gcp_gl_step_wlift(const struct gl_ctx *C, const struct gcp_gc_consts *k, str
                 glw_solve2(o[i].Pw, b, v[i]);
                 v[i][0] *= h, v[i][1] *= h;
             }
-            glw_end_guess(T, L->aux[0], w, v, pe);
+            gcp_gl_end_guess(T, L->aux[0], w, v, pe);
             if (!(pe[0] > 0.0 && isfinite(pe[1]))) pe[0] = w[s - 1][0], pe[1] = w[s - 1][1];
             /* no curve slopes (NaN: have_C = 0): the next start guess is
              * the time extrapolation of the stage points (gcp_gl_lift_begin),
