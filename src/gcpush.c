@@ -516,10 +516,11 @@ int main(int argc, char **argv)
                     "(those particles end NONFINITE)\n", sc->pops[k].file,
                     (long long)sc->pops[k].init.nonfinite, (long long)sc->pops[k].count);
     /* arithmetic = fast where this CPU, build or method has no fast step: say so */
-    if (me == 0 && sc->fast_arith && !gcp_arithmetic_fast_available(sc->pusher))
-        fprintf(stderr, "gcpush: note: [integrator] arithmetic = fast: no fast step for '%s' on "
-                "this CPU and build (the fast tier is boris with AVX-512F); the IEEE step runs\n",
-                sc->pusher->name);
+    if (me == 0 && sc->fast_arith && !gcp_arithmetic_fast_runs(sc->pusher, sc->field))
+        fprintf(stderr, "gcpush: note: [integrator] arithmetic = fast: no fast step for '%s' in "
+                "field '%s' on this CPU and build (the fast tier is boris with AVX-512F in the "
+                "dipole and uniform B); the IEEE step runs (the output's attribute arithmetic = "
+                "ieee)\n", sc->pusher->name, sc->field_model);
     if (!restart && gcp_sweep_wanted(sc)) { /* [sweep]: error against run time (sweep.h) */
         default_stop_signals();
         /* a sweep's output is not replaced without --force either */

@@ -158,6 +158,12 @@ struct gcp_block {
  * CPU and build (in the closed-form fields, dipole and uniform). */
 int gcp_arithmetic_fast_available(const struct gcp_pusher_type *p);
 
+/* Non-zero when GCP_BLOCK_FAST_ARITH runs the fast step for pusher p in
+ * field f on this CPU and build: the pusher has a fast tier here and the
+ * field is a closed form the tier has a tile for (without E: dipole,
+ * uniform B).  What the output's root attribute `arithmetic` records. */
+int gcp_arithmetic_fast_runs(const struct gcp_pusher_type *p, const struct gcp_field *f);
+
 /* Allocates a block of n lanes (all arrays; index[i] = i). */
 int gcp_block_alloc(struct gcp_block *b, size_t n);
 void gcp_block_free(struct gcp_block *b);

@@ -5,6 +5,7 @@
 
 #include <hdf5.h>
 
+#include "gcpush/pusher.h"
 #include "io_priv.h"
 
 #ifndef GCP_VERSION
@@ -61,6 +62,12 @@ void gcp_h5_root_attrs(int *bad, int64_t file, const struct gcp_scene *sc, int n
     gcp_h5_attr_str(bad, file, "scene", sc->name);
     gcp_h5_attr_str(bad, file, "field", sc->field_model);
     gcp_h5_attr_str(bad, file, "method", sc->pusher->name);
+    /* the arithmetic the method's steps ran in: `fast` only where it was
+     * asked and this CPU, build, method and field have the fast step */
+    gcp_h5_attr_str(bad, file, "arithmetic",
+                    sc->fast_arith && sc->field && gcp_arithmetic_fast_runs(sc->pusher, sc->field)
+                        ? "fast"
+                        : "ieee");
     gcp_h5_attr_num(bad, file, "ranks", H5T_NATIVE_INT, &nranks);
     gcp_h5_attr_num(bad, file, "duration", H5T_NATIVE_DOUBLE, &sc->duration);
     gcp_h5_attr_num(bad, file, "seed", H5T_NATIVE_UINT64, &sc->seed);

@@ -478,6 +478,18 @@ int gcp_arithmetic_fast_available(const struct gcp_pusher_type *p)
     return gcp_fo_fast_set(p) != NULL;
 }
 
+/* The same choice gcp_block_advance_fo makes (the fused tile of the
+ * field's point form, the fast set's where it has one), made once. */
+int gcp_arithmetic_fast_runs(const struct gcp_pusher_type *p, const struct gcp_field *f)
+{
+    const struct gcp_fo_fused *ff = gcp_fo_fast_set(p);
+    struct gcp_point_B form;
+    if (!ff || !p->fused || !gcp_field_point_B(f, &form) || form.form <= 0 ||
+        form.form >= GCP_POINT_B_NFORMS)
+        return 0;
+    return ff->tile[form.form][form.has_E != 0] != NULL;
+}
+
 int gcp_orbit_push(const struct gcp_field *f, const struct gcp_pusher_type *p, double q, double m,
                    double *t, double x[3], double u[3], double dt, int64_t nsteps, gcp_step_cb cb,
                    void *ctx)

@@ -228,5 +228,50 @@ for u in (ua, ub):
     assert (np.abs(np.linalg.norm(u, axis=1) / u0 - 1) <= 8 * 2.2e-16 * np.sqrt(n)).all()
 print("arithmetic fast vs ieee (boris, dipole): |dx|/|x| <= %.1e, |du|/|u| <= %.1e" % (dx.max(), du.max()))
 PYEOF
+# The root attribute `arithmetic` records the step that ran: ieee for the
+# default; fast where this CPU has AVX-512F (the fast tier's requirement:
+# boris_fast.c), and then no note; ieee with the note otherwise.  In the
+# analytic tokamak the fast tier has no tile: ieee and the note, whatever
+# the CPU.
+grep -qw avx512f /proc/cpuinfo && have512=1 || have512=0
+cat > ar_tok.run <<RUN
+[scene]
+name     = arith-tokamak
+field    = tokamak
+duration = 200 gyro
+seed     = 3
+[field]
+B0 = 2 T
+R0 = 3 m
+a  = 1 m
+q0 = 1
+qa = 3
+[particles]
+species  = proton
+count    = 4
+energy   = 10 keV
+position = 3.5 0 0 m
+pitch    = 30 deg .. 80 deg
+[integrator]
+method     = boris
+dt         = 0.05 gyro
+arithmetic = fast
+[output]
+file = ar_tok.h5
+RUN
+"$GCPUSH" --quiet ar_tok.run 2> ar_tok.err || die "arithmetic = fast in the tokamak failed: $(cat ar_tok.err)"
+grep -q "no fast step for 'boris' in field 'tokamak'" ar_tok.err || die "no note for fast in the tokamak"
+"$PY" - ar_ieee.h5 ar_fast.h5 ar_tok.h5 $have512 "$(cat ar_fast.err)" <<'PYEOF' || die "attribute arithmetic"
+import sys, h5py
+att = [h5py.File(p, "r").attrs["arithmetic"] for p in sys.argv[1:4]]
+att = [a.decode() if isinstance(a, bytes) else a for a in att]
+have512, note = sys.argv[4] == "1", sys.argv[5]
+assert att[0] == "ieee", att
+assert att[1] == ("fast" if have512 else "ieee"), (att, have512)
+assert ("no fast step" in note) == (not have512), note
+assert att[2] == "ieee", att
+print("attribute arithmetic: ieee run %s, fast run %s (AVX-512F: %s), tokamak fast run %s"
+      % (att[0], att[1], have512, att[2]))
+PYEOF
 
 echo "ok test_runs"
