@@ -269,12 +269,14 @@ void gcp_output_invariants(struct gcp_ev_writer *w, const struct gcp_scene *sc, 
                  "0: equator points, 1: guiding centre on the cadence (no equator turn)", 0}};
             gcp_output_event_table(w, g, "drift", GCP_EVENT_DRIFT, c, 4, mode, comm);
             /* say why a column is NaN throughout (issue 13) */
-            if (strcmp(sc->field_model, "igrf") == 0) {
+            if (!(gcp_field_caps(sc->field) & GCP_CAP_A)) {
+                char why[256];
+                snprintf(why, sizeof why,
+                         "Lstar and Phi are NaN: Phi = |oint A.dl| needs the field's vector "
+                         "potential, which the %s model does not give", sc->field_model);
                 hid_t gd = H5Gopen2(g, "drift", H5P_DEFAULT);
                 if (gd >= 0) {
-                    attr_str(w, gd, "Lstar_undefined",
-                             "Lstar and Phi are NaN: Phi = |oint A.dl| needs the field's vector "
-                             "potential, which the igrf model does not give");
+                    attr_str(w, gd, "Lstar_undefined", why);
                     H5Gclose(gd);
                 }
             }

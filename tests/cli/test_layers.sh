@@ -156,6 +156,11 @@ for m in $models; do
     hits=$(grep -rn "&$m\b" src --include='*.c' --include='*.h' 2>/dev/null)
     [ -n "$hits" ] && say "model type test outside fields/: $(echo "$hits" | head -3 | tr '\n' ';')"
 done
+# ... nor compares the model's name (sc->field_model, a model argument) with
+# a string: the name is for messages and the output's `field` attribute.
+hits=$(grep -rnE 'strn?cmp\([^;]*(field_model|model)\b[^;]*"[a-z_-]+"|strn?cmp\("[a-z_-]+", *[a-z_>.-]*model\)' \
+    src --include='*.c' --include='*.h' 2>/dev/null)
+[ -n "$hits" ] && say "model name test outside fields/: $(echo "$hits" | head -3 | tr '\n' ';')"
 
 [ $fail = 0 ] && echo "ok layers (include directions, exported symbols, MPI-free public headers, no FMA contraction, no model-type tests)"
 exit $fail
