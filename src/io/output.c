@@ -2,7 +2,7 @@
  * through MPI-IO (parallel HDF5).  Layout: DESIGN.md, "HDF5 output".
  *
  * Each rank holds its rows sorted by particle id and writes them in place
- * (past ~1000 runs of ids per rank the rows are moved first, one Alltoallv
+ * (past ~1000 runs of ids per rank the rows are moved first, one exchange
  * per column, so that each rank holds one block of consecutive ids: struct
  * writer, output_rows.c; the trajectories are moved always).  Datasets, groups and attributes are created
  * collectively; the rows of contiguous datasets go in with independent

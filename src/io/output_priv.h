@@ -32,8 +32,17 @@ struct writer {
     int64_t lo, hi;
     int *scount, *sdispl, *rcount, *rdispl; /* rows to / from each rank */
     int64_t *place;          /* received row j goes to row place[j] - lo */
-    void *in, *out;          /* a column's rows from other ranks, its block */
-    size_t in_cap, out_cap;  /* their bytes */
+    void *out;               /* a column's block */
+    size_t out_cap;          /* its bytes */
+    size_t widest;           /* bytes of the widest row `out` holds nr of */
+    /* the received rows' places as runs of consecutive rows: those from
+     * rank k are runs run0[k] .. run0[k+1]-1, run i at row run_at[i] - lo,
+     * run_len[i] rows; run_disp, req, rtype: space for their exchange */
+    int *run0, *run_len;
+    int64_t *run_at;
+    MPI_Aint *run_disp;
+    MPI_Request *req;
+    MPI_Datatype *rtype;
     const char *output;      /* for progress lines */
     double t0, last;         /* wall clock: write start, last progress line */
     int ndone;               /* datasets written */

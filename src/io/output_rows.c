@@ -56,6 +56,20 @@ static int64_t even_piece(int64_t n, int64_t most)
 
 int64_t gcp_writer_trajectory_rows(int64_t total) { return even_piece(total, 64); }
 
+/* A buffer of the writer's (grown, kept across columns, freed in
+ * gcp_writer_spread_free): a fresh malloc per column of the trajectories
+ * is fresh pages, faulted in and zeroed each time (2 x 12 MB of them per
+ * rank and column on the flagship). */
+static void *scratch(void **buf, size_t *cap, size_t bytes)
+{
+    if (bytes > *cap) {
+        free(*buf);
+        *buf = gcp_io_alloc(bytes);
+        *cap = *buf ? bytes : 0;
+    }
+    return *buf;
+}
+
 /* Plans the move: who sends which rows where, and where the received rows
  * go.  Every id 0..N-1 must arrive exactly once (restart_load and the push
  * guarantee it); otherwise w->bad. */
@@ -105,6 +119,41 @@ void gcp_writer_spread_plan(struct writer *w)
         }
     }
     free(seen);
+    /* the block's buffer, once, for the widest row moved (a trajectory
+     * row, or the 32-byte species name), reused by every column: it is
+     * the one fresh memory of the move (first touches cost ~13 us a 4 KiB
+     * page in the build VM; one buffer per column size and one for the
+     * received rows were 2-3x as much, ~9 MB per rank of the flagship) */
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns((struct gcp_results *)r, c);
+    size_t widest = 32;
+    for (size_t k = 0; k < nc; k++) {
+        const size_t row = (size_t)c[k].per_row * c[k].elem;
+        widest = row > widest ? row : widest;
+    }
+    if (!bad && !scratch(&w->out, &w->out_cap, (size_t)(nr ? nr : 1) * widest)) bad = 1;
+    w->widest = widest;
+    /* runs of consecutive places among each rank's rows (its rows come in
+     * id order), the same for every column */
+    w->run0 = malloc((size_t)(P + 1) * sizeof *w->run0);
+    w->run_len = malloc((size_t)(nr ? nr : 1) * sizeof *w->run_len);
+    w->run_at = malloc((size_t)(nr ? nr : 1) * sizeof *w->run_at);
+    w->run_disp = malloc((size_t)(nr ? nr : 1) * sizeof *w->run_disp);
+    w->req = malloc((size_t)(2 * P) * sizeof *w->req);
+    w->rtype = malloc((size_t)P * sizeof *w->rtype);
+    bad |= !w->run0 || !w->run_len || !w->run_at || !w->run_disp || !w->req || !w->rtype;
+    for (int k = 0, runs = 0; k < P && !bad; k++) {
+        w->run0[k] = runs;
+        for (int j = w->rdispl[k]; j < w->rdispl[k] + w->rcount[k]; j++) {
+            if (j > w->rdispl[k] && w->place[j] == w->place[j - 1] + 1) {
+                w->run_len[runs - 1]++;
+                continue;
+            }
+            w->run_at[runs] = w->place[j];
+            w->run_len[runs++] = 1;
+        }
+        w->run0[k + 1] = runs;
+    }
     w->bad |= bad;
     w->spread = 1;
 }
@@ -116,61 +165,61 @@ void gcp_writer_spread_free(struct writer *w)
     free(w->rcount);
     free(w->rdispl);
     free(w->place);
-    free(w->in);
     free(w->out);
-    w->in = w->out = NULL;
-    w->in_cap = w->out_cap = 0;
-}
-
-/* A buffer of the writer's (grown, kept across columns, freed in
- * gcp_writer_spread_free): a fresh malloc per column of the trajectories
- * is fresh pages, faulted in and zeroed each time (2 x 12 MB of them per
- * rank and column on the flagship). */
-static void *scratch(void **buf, size_t *cap, size_t bytes)
-{
-    if (bytes > *cap) {
-        free(*buf);
-        *buf = gcp_io_alloc(bytes);
-        *cap = *buf ? bytes : 0;
-    }
-    return *buf;
+    free(w->run0);
+    free(w->run_len);
+    free(w->run_at);
+    free(w->run_disp);
+    free(w->req);
+    free(w->rtype);
+    w->out = NULL;
+    w->out_cap = 0;
 }
 
 /* This rank's block of rows [lo, hi) of a column whose rows (`row` bytes
  * each) are `data` in the rank's order: the writer's buffer w->out (valid
  * until the next column), or NULL on failure.  The rows that stay on this
- * rank are copied straight to their place; only the others go through
- * MPI (its copy to itself was a second pass over them). */
+ * rank are copied straight to their place; the others are received
+ * straight into theirs (a datatype per sending rank: its runs of
+ * consecutive places), not into a buffer of their own and then copied. */
 static void *spread_column(struct writer *w, const void *data, size_t row)
 {
     int me, P;
     MPI_Comm_rank(w->comm, &me);
     MPI_Comm_size(w->comm, &P);
     const int64_t nr = w->hi - w->lo;
-    const int64_t nin = nr - w->rcount[me]; /* rows from other ranks */
-    char *out = scratch(&w->out, &w->out_cap, (size_t)(nr ? nr : 1) * row);
-    char *in = scratch(&w->in, &w->in_cap, (size_t)(nin ? nin : 1) * row);
-    int bad = !in || !out;
-    MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, w->comm);
-    if (bad) return NULL;
-    const int sc = w->scount[me], rc = w->rcount[me], sd = w->sdispl[me], rd = w->rdispl[me];
-    w->scount[me] = w->rcount[me] = 0;
-    /* the received rows without this rank's own: displacements shift down past them */
-    for (int k = me + 1; k < P; k++) w->rdispl[k] -= rc;
-    MPI_Datatype t;
-    MPI_Type_contiguous((int)row, MPI_BYTE, &t);
-    MPI_Type_commit(&t);
-    MPI_Alltoallv(data, w->scount, w->sdispl, t, in, w->rcount, w->rdispl, t, w->comm);
-    MPI_Type_free(&t);
-    for (int k = me + 1; k < P; k++) w->rdispl[k] += rc;
-    w->scount[me] = sc;
-    w->rcount[me] = rc;
-    /* received row j (rank order, own rows at rd .. rd + rc) goes to place[j] */
-    for (int64_t j = 0, q = 0; j < nr; j++) {
-        const int own = j >= rd && j < rd + rc;
-        const char *src = own ? (const char *)data + (size_t)(sd + (j - rd)) * row : in + (size_t)q++ * row;
-        memcpy(out + (size_t)(w->place[j] - w->lo) * row, src, row);
+    if (row > w->widest) { /* not planned for (the same on every rank: `row` is the column's) */
+        int bad = !scratch(&w->out, &w->out_cap, (size_t)(nr ? nr : 1) * row);
+        MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, w->comm);
+        if (bad) return NULL;
+        w->widest = row;
     }
+    char *out = w->out;
+    MPI_Datatype rowt;
+    MPI_Type_contiguous((int)row, MPI_BYTE, &rowt);
+    MPI_Type_commit(&rowt);
+    int nreq = 0, ntypes = 0;
+    for (int k = 0; k < P; k++) {
+        if (k == me || w->rcount[k] == 0) continue;
+        const int r0 = w->run0[k], runs = w->run0[k + 1] - r0;
+        for (int i = r0; i < r0 + runs; i++)
+            w->run_disp[i] = (MPI_Aint)((size_t)(w->run_at[i] - w->lo) * row);
+        MPI_Type_create_hindexed(runs, w->run_len + r0, w->run_disp + r0, rowt, &w->rtype[ntypes]);
+        MPI_Type_commit(&w->rtype[ntypes]);
+        MPI_Irecv(out, 1, w->rtype[ntypes++], k, 0, w->comm, &w->req[nreq++]);
+    }
+    for (int k = 0; k < P; k++)
+        if (k != me && w->scount[k])
+            MPI_Isend((const char *)data + (size_t)w->sdispl[k] * row, w->scount[k], rowt, k, 0,
+                      w->comm, &w->req[nreq++]);
+    /* this rank's own rows, while the others' are under way */
+    const int64_t *pl = w->place + w->rdispl[me];
+    const char *own = (const char *)data + (size_t)w->sdispl[me] * row;
+    for (int j = 0; j < w->rcount[me]; j++)
+        memcpy(out + (size_t)(pl[j] - w->lo) * row, own + (size_t)j * row, row);
+    if (nreq) MPI_Waitall(nreq, w->req, MPI_STATUSES_IGNORE);
+    for (int k = 0; k < ntypes; k++) MPI_Type_free(&w->rtype[k]);
+    MPI_Type_free(&rowt);
     return out;
 }
 
