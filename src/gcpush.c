@@ -445,10 +445,11 @@ static void keep_freed_memory(void)
     const uintptr_t lo = (uintptr_t)sbrk(0);
     mallopt(M_TOP_PAD, 256 << 20);
     void *p = malloc(1 << 20);
+    const int grown = p != NULL; /* p is not read once freed */
     free(p);
     mallopt(M_TOP_PAD, 128 << 10); /* glibc's default again */
     const uintptr_t a = (lo + huge - 1) & ~(huge - 1), e = (uintptr_t)sbrk(0) & ~(huge - 1);
-    if (p && e > a) (void)madvise((void *)a, e - a, MADV_HUGEPAGE); /* a hint */
+    if (grown && e > a) (void)madvise((void *)a, e - a, MADV_HUGEPAGE); /* a hint */
 #endif
 #endif
 }
