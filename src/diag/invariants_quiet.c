@@ -24,7 +24,18 @@
  * the kernel zeroing fresh pages, ~14%), this pass ~17% (bound by its two
  * square roots and two divisions a lane-step, ~2.5 ns), B at the lanes
  * ~4%.  The fused tile taking one step per call, with the last-position
- * copy, ~0.03 s (a run with only `events = loss`). */
+ * copy, ~0.03 s (a run with only `events = loss`).
+ *
+ * Since: B at the lanes comes from the block where gc-rk4's fused step left
+ * it (GCP_BLOCK_B_AT_X: the dipole form it formed at the new state for its
+ * next call's stage 1), one square root and one division a lane-step less
+ * here; the lane's state is written with selects (GCC's masked stores of
+ * next[] were read back at once, a store-forwarding stall); the slow lanes'
+ * struct lane prefetched.  gc-rk4 push with the observer, median of 11
+ * interleaved runs on one core: 0.370 -> 0.350 s (bare push 0.174 s:
+ * 2.13x -> 1.99x).  What bounds the pass now: two square roots and two
+ * divisions a lane (|B|, gamma m, p^2/c^2, the J integrand), which the
+ * events' bits fix. */
 #include <math.h>
 #include <stdint.h>
 
