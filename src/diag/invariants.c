@@ -47,6 +47,7 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
+#include "pushers/gc_rk4_priv.h"
 
 void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event *e)
 {
@@ -509,8 +510,9 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
     int all = o->stream && gc && n && o->gc && !o->hybrid && !o->hot.per_lane;
     for (size_t i = 0; all && !dense && i < n; i++)
         all = b->index[i] < o->nlanes && o->active[b->index[i]];
-    /* B at the lanes: in the quiet pass itself for the dipole's closed form */
-    if (o->stream && n && !fo_done && !(all && o->pdip)) {
+    /* B at the lanes: in the quiet pass itself for the dipole's closed
+     * form, or from the block where the step left it (GCP_BLOCK_B_AT_X) */
+    if (o->stream && n && !fo_done && !(all && (o->pdip || (b->flags & GCP_BLOCK_B_AT_X)))) {
         memset(o->fst, 0, n * sizeof(int32_t));
         o->f->type->eval_block(o->f, t, n, b->x, b->y, b->z, o->Bx, o->By, o->Bz, NULL, NULL,
                                NULL, o->fst);

@@ -303,13 +303,38 @@ struct rk4_ctx {
     struct gcp_rk4_tile_args targs;
     double *save;                  /* [4 b->n] the block's X, p_par at the start of rk4_steps */
     int64_t *done;                 /* [tiles] steps each tile took */
+    /* the form at each lane's state, kept from a call of the fused step to
+     * the next (gcp_rk4_tile_fn cv): B in the block's b->Bx, By, Bz (the
+     * statement GCP_BLOCK_B_AT_X), |B|, C_x, C_y, P in vals (B too where
+     * the block has no b->Bx); have: they hold the form at the live lanes'
+     * state -- cleared by anything else that moves a lane (the block step,
+     * a retirement's renumbering), which also clears the block's flag */
+    double *vals;
+    double *cv[7];
+    int carry; /* the tile carries the form (the dipole's; the uniform form's is its constants) */
+    int have;
 };
+
+/* The carried form no longer holds (the block step moved the lanes, or
+ * lanes were renumbered). */
+static void rk4_drop(struct rk4_ctx *c, struct gcp_block *b)
+{
+    c->have = 0;
+    b->flags &= ~GCP_BLOCK_B_AT_X;
+}
+
+static void rk4_relanes(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n)
+{
+    (void)ev, (void)n;
+    rk4_drop(vctx, b);
+}
 
 static int32_t rk4_start(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                          double t, int first)
 {
-    const struct rk4_ctx *c = vctx;
+    struct rk4_ctx *c = vctx;
     (void)first; /* k1 is needed at every step */
+    rk4_drop(c, b);
     return stage1(b, n, rk4_chunk_of(ev, b), ev->work, ev->f, t, ev->need,
                   ev->o->adiabaticity_max, &c->kc);
 }
@@ -317,8 +342,9 @@ static int32_t rk4_start(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
 static int32_t rk4_step(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                         double t, double h)
 {
-    const struct rk4_ctx *rc = vctx;
+    struct rk4_ctx *rc = vctx;
     struct rk4_chunk *c = rk4_chunk_of(ev, b);
+    rk4_drop(rc, b);
     for (size_t i0 = 0; i0 < n; i0 += CHUNK)
         stages234(b, i0, n - i0 < CHUNK ? n - i0 : CHUNK, c, ev->work, ev->f, t, h, ev->need,
                   &rc->kc);
@@ -342,17 +368,28 @@ static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
     (void)ev, (void)t, (void)h, (void)lanes;
     *stops = 1; /* the evolve layer classifies after the steps, as after one */
     if (!c->tile) return 0;
+    const int carried = c->have;
+    rk4_drop(c, b);
     double *a[4] = {b->x, b->y, b->z, b->ppar};
     for (int k = 0; k < 4; k++) memcpy(c->save + (size_t)k * b->n, a[k], n * sizeof(double));
     int64_t kd = kmax;
     size_t tile = 0;
+    int32_t stopped = 0;
     for (size_t i0 = 0; i0 < n; i0 += GCP_RK4_TILE, tile++) {
         const size_t nt = n - i0 < GCP_RK4_TILE ? n - i0 : GCP_RK4_TILE;
+        double *cv[7];
+        for (int v = 0; v < 7; v++) cv[v] = c->cv[v] + i0;
+        int32_t st;
         const int64_t k = c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, b->mu + i0,
-                                  b->fstatus + i0, nt, kd, &c->targs);
+                                  b->fstatus + i0, cv, carried, &st, nt, kd, &c->targs);
         c->done[tile] = k;
+        stopped |= st;
         if (k < kd) kd = k;
     }
+    /* every tile took kmax steps and tested every lane after the last
+     * with the classification's own test (gcp_lane_stops, the verdicts
+     * all 0): none stops, and the evolve layer need not classify */
+    if (kd == kmax && !stopped) *stops = 0;
     if (kd < kmax) {
         tile = 0;
         for (size_t i0 = 0; i0 < n; i0 += GCP_RK4_TILE, tile++) {
@@ -360,10 +397,22 @@ static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
             const size_t nt = n - i0 < GCP_RK4_TILE ? n - i0 : GCP_RK4_TILE;
             for (int k = 0; k < 4; k++)
                 memcpy(a[k] + i0, c->save + (size_t)k * b->n + i0, nt * sizeof(double));
+            /* the carried form was overwritten by the steps past kd: formed
+             * again (the same numbers) */
+            double *cv[7];
+            for (int v = 0; v < 7; v++) cv[v] = c->cv[v] + i0;
+            int32_t st;
             if (kd > 0)
                 c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, b->mu + i0, b->fstatus + i0,
-                        nt, kd, &c->targs);
+                        cv, 0, &st, nt, kd, &c->targs);
         }
+    }
+    /* every tile took kmax steps, the last of which wrote the form at its
+     * lanes' new state (where a tile stopped short, or was run again to
+     * kd, the carried form does not hold: formed again next call) */
+    if (kd == kmax && c->carry) {
+        c->have = 1;
+        if (c->cv[0] == b->Bx) b->flags |= GCP_BLOCK_B_AT_X;
     }
     return kd;
 }
@@ -393,6 +442,7 @@ static const struct gcp_stepper rk4_stepper = {
     .start = rk4_start,
     .step = rk4_step,
     .steps = rk4_steps,
+    .relanes = rk4_relanes,
 };
 
 static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
@@ -414,13 +464,26 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
                                              .rout2 = f->r_outer * f->r_outer, .zmax = f->z_max,
                                              .amax = o->adiabaticity_max, .q = b->q, .m = b->m};
         memcpy(c.targs.p, form.p, sizeof form.p);
-        c.save = malloc(4 * (b->n + 1) * sizeof(double));
+        const size_t N = b->n + 1;
+        c.save = malloc(4 * N * sizeof(double));
         c.done = malloc((b->n / GCP_RK4_TILE + 1) * sizeof(int64_t));
-        if (!c.save || !c.done) free(c.save), free(c.done), c.save = NULL, c.done = NULL, c.tile = NULL;
+        c.vals = malloc(7 * N * sizeof(double));
+        if (!c.save || !c.done || !c.vals) {
+            free(c.save), free(c.done), free(c.vals);
+            c.save = NULL, c.done = NULL, c.vals = NULL, c.tile = NULL;
+        } else {
+            const int own = b->Bx && b->By && b->Bz;
+            c.carry = form.form == GCP_POINT_B_DIPOLE;
+            for (int v = 0; v < 7; v++) c.cv[v] = c.vals + (size_t)v * N;
+            if (own) c.cv[0] = b->Bx, c.cv[1] = b->By, c.cv[2] = b->Bz;
+        }
     }
+    b->flags &= ~GCP_BLOCK_B_AT_X;
     const size_t live = gcp_evolve_inline(b, f, o, s, &rk4_stepper, &c);
+    b->flags &= ~GCP_BLOCK_B_AT_X;
     free(c.save);
     free(c.done);
+    free(c.vals);
     return live;
 }
 

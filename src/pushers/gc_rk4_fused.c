@@ -137,6 +137,15 @@ rhs_vacuum(const double B[3], double Bm, const double C[3], double HB, const dou
  * classification's bounds). */
 enum { ST_FIRST, ST_MID, ST_LAST };
 
+/* The dipole form's values at a lane's state (B, |B|, C_x, C_y, P: C_z
+ * is 0), formed by the last step of a call at the new state (ST_LAST with
+ * `carried`) into the caller's arrays cv (B in the block's b->Bx, By, Bz,
+ * where the invariant observer reads it: gc_rk4_priv.h), and read by the
+ * next call's first stage 1 instead of forming them again: the same
+ * numbers (the same function of the same state), so the push is the same
+ * bit for bit.  With the observer a call is one step: the step's form is
+ * then formed once for the pusher and the observer. */
+
 struct tile_state {
     double S[4][GCP_RK4_TILE];   /* the stage state X, Y, Z, p_par */
     double acc[4][GCP_RK4_TILE]; /* k1 + 2 k2 + 2 k3 + k4 so far */
@@ -144,9 +153,10 @@ struct tile_state {
 };
 
 static inline __attribute__((always_inline)) int32_t
-stage(int form, int withE, int mode, struct tile_state *restrict ts, double *restrict x,
-      double *restrict y, double *restrict z, double *restrict p, const double *restrict mu,
-      int32_t *restrict fst, size_t nt, double w, double cn, const struct gcp_rk4_tile_args *pa)
+stage(int form, int withE, int mode, int carried, struct tile_state *restrict ts,
+      double *restrict x, double *restrict y, double *restrict z, double *restrict p,
+      const double *restrict mu, int32_t *restrict fst, double *const *restrict cv, size_t nt,
+      double w, double cn, const struct gcp_rk4_tile_args *pa)
 {
     /* a copy: the loop reads no memory that a store of it could change */
     const struct gcp_rk4_tile_args A = *pa, *a = &A;
@@ -157,12 +167,26 @@ stage(int form, int withE, int mode, struct tile_state *restrict ts, double *res
     int16_t *restrict code = ts->code;
     const double h6 = a->h / 6.0;
     const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;
+    double *restrict v0 = cv[0], *restrict v1 = cv[1], *restrict v2 = cv[2], *restrict v3 = cv[3];
+    double *restrict v4 = cv[4], *restrict v5 = cv[5], *restrict v6 = cv[6];
     int32_t any = 0;
+    /* the arrays are distinct (GCC would test 12+ pairs of them for overlap
+     * at run time, and gives up past 10: the loop ran scalar) */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC ivdep
+#endif
     for (size_t i = 0; i < nt; i++) {
         const double Xi = mode == ST_FIRST ? x[i] : X[i], Yi = mode == ST_FIRST ? y[i] : Y[i];
         const double Zi = mode == ST_FIRST ? z[i] : Z[i], Pi = mode == ST_FIRST ? p[i] : P[i];
         double B[3], Bm, C[3], HB, E[3], dX, dY, dZ, dp;
-        form_gc(form, withE, a->p, Xi, Yi, Zi, B, &Bm, C, &HB, E);
+        if (mode == ST_FIRST && carried && form == GCP_POINT_B_DIPOLE) {
+            B[0] = v0[i], B[1] = v1[i], B[2] = v2[i], Bm = v3[i];
+            C[0] = v4[i], C[1] = v5[i], C[2] = 0.0, HB = v6[i];
+            E[0] = withE ? a->p[3] : 0.0, E[1] = withE ? a->p[4] : 0.0;
+            E[2] = withE ? a->p[5] : 0.0;
+        } else {
+            form_gc(form, withE, a->p, Xi, Yi, Zi, B, &Bm, C, &HB, E);
+        }
         const int32_t own = rhs_vacuum(B, Bm, C, HB, E, withE, Pi, mu[i], &a->kc, &dX, &dY, &dZ, &dp);
         if (mode == ST_FIRST) {
             a0[i] = dX, a1[i] = dY, a2[i] = dZ, a3[i] = dp;
@@ -174,19 +198,26 @@ stage(int form, int withE, int mode, struct tile_state *restrict ts, double *res
             const double s0 = a0[i] + w * dX, s1 = a1[i] + w * dY;
             const double s2 = a2[i] + w * dZ, s3 = a3[i] + w * dp;
             const int32_t c0 = code[i];
-            const int32_t cv = c0 + (c0 == 0) * own;
+            const int32_t code1 = c0 + (c0 == 0) * own;
             if (mode == ST_MID) {
                 a0[i] = s0, a1[i] = s1, a2[i] = s2, a3[i] = s3;
-                code[i] = (int16_t)cv;
+                code[i] = (int16_t)code1;
                 X[i] = x[i] + cn * dX, Y[i] = y[i] + cn * dY;
                 Z[i] = z[i] + cn * dZ, P[i] = p[i] + cn * dp;
             } else {
                 const double x1 = x[i] + h6 * s0, y1 = y[i] + h6 * s1;
                 const double z1 = z[i] + h6 * s2, p1 = p[i] + h6 * s3;
                 x[i] = x1, y[i] = y1, z[i] = z1, p[i] = p1;
-                fst[i] = cv;
+                fst[i] = code1;
+                /* the form at the new state, for the next call's stage 1 */
+                if (carried && form == GCP_POINT_B_DIPOLE) {
+                    double B1[3], Bm1, C1[3], HB1;
+                    gcp_point_gc_dipole(a->p[0], x1, y1, z1, B1, &Bm1, C1, &HB1);
+                    v0[i] = B1[0], v1[i] = B1[1], v2[i] = B1[2], v3[i] = Bm1;
+                    v4[i] = C1[0], v5[i] = C1[1], v6[i] = HB1;
+                }
                 const double r2 = x1 * x1 + y1 * y1 + z1 * z1;
-                any |= (cv != 0) | gcp_lane_stops(r2, p1 * p1 + mu[i], z1, rin2, rout2, zmax);
+                any |= (code1 != 0) | gcp_lane_stops(r2, p1 * p1 + mu[i], z1, rin2, rout2, zmax);
             }
         }
     }
@@ -219,18 +250,36 @@ adiabaticity_tile(int form, struct tile_state *restrict ts, const double *restri
 
 static inline __attribute__((always_inline)) int64_t
 tile_steps(int form, int withE, double *restrict x, double *restrict y, double *restrict z,
-           double *restrict p, const double *restrict mu, int32_t *restrict fst, size_t nt, int64_t kmax, const struct gcp_rk4_tile_args *a)
+           double *restrict p, const double *restrict mu, int32_t *restrict fst,
+           double *const *restrict cv, int carried, int32_t *stopped, size_t nt, int64_t kmax,
+           const struct gcp_rk4_tile_args *a)
 {
+    *stopped = 0;
     struct tile_state ts;
     const double h = a->h;
     for (int64_t s = 0; s < kmax; s++) {
-        int32_t any = stage(form, withE, ST_FIRST, &ts, x, y, z, p, mu, fst, nt, 1.0, 0.5 * h, a);
+        /* the call's first stage 1 reads the form where it is carried in;
+         * the others form it (in registers: carrying it from step to step
+         * through the tile's memory cost ~6% of the step) */
+        int32_t any = s == 0 && carried
+                          ? stage(form, withE, ST_FIRST, 1, &ts, x, y, z, p, mu, fst, cv, nt, 1.0,
+                                  0.5 * h, a)
+                          : stage(form, withE, ST_FIRST, 0, &ts, x, y, z, p, mu, fst, cv, nt, 1.0,
+                                  0.5 * h, a);
         if (a->amax > 0.0) any |= adiabaticity_tile(form, &ts, x, y, z, p, mu, nt, a);
         if (any) return s;
         /* k2 at t + h/2 (weight 2, next offset h/2), k3 at t + h/2 (2, h), k4 at t + h (1) */
-        stage(form, withE, ST_MID, &ts, x, y, z, p, mu, fst, nt, 2.0, 0.5 * h, a);
-        stage(form, withE, ST_MID, &ts, x, y, z, p, mu, fst, nt, 2.0, 1.0 * h, a);
-        if (stage(form, withE, ST_LAST, &ts, x, y, z, p, mu, fst, nt, 1.0, 0.0, a)) return s + 1;
+        stage(form, withE, ST_MID, 0, &ts, x, y, z, p, mu, fst, cv, nt, 2.0, 0.5 * h, a);
+        stage(form, withE, ST_MID, 0, &ts, x, y, z, p, mu, fst, cv, nt, 2.0, 1.0 * h, a);
+        /* the call's last step writes the form at the new state */
+        const int32_t stop =
+            s == kmax - 1
+                ? stage(form, withE, ST_LAST, 1, &ts, x, y, z, p, mu, fst, cv, nt, 1.0, 0.0, a)
+                : stage(form, withE, ST_LAST, 0, &ts, x, y, z, p, mu, fst, cv, nt, 1.0, 0.0, a);
+        if (stop) {
+            *stopped = 1;
+            return s + 1;
+        }
     }
     return kmax;
 }
@@ -238,9 +287,10 @@ tile_steps(int form, int withE, double *restrict x, double *restrict y, double *
 #define TILE_FN_(NAME, FORM, WITHE)                                                             \
     static int64_t NAME(double *restrict x, double *restrict y, double *restrict z,             \
                         double *restrict p, const double *restrict mu, int32_t *restrict fst,    \
-                        size_t nt, int64_t kmax, const struct gcp_rk4_tile_args *a)              \
+                        double *const *cv, int carried, int32_t *stopped, size_t nt,             \
+                        int64_t kmax, const struct gcp_rk4_tile_args *a)                         \
     {                                                                                           \
-        return tile_steps(FORM, WITHE, x, y, z, p, mu, fst, nt, kmax, a);                       \
+        return tile_steps(FORM, WITHE, x, y, z, p, mu, fst, cv, carried, stopped, nt, kmax, a); \
     }
 TILE_FN_(tile_dipole_B, GCP_POINT_B_DIPOLE, 0)
 TILE_FN_(tile_uniform_B, GCP_POINT_B_UNIFORM, 0)

@@ -20,7 +20,9 @@ struct gcp_rk4_consts {
  * closed-form field.  Returns the steps taken: kmax, or s where the
  * start-of-step check of step s + 1 stops a lane (the tile then holds the
  * state after s steps; s = 0: nothing moved), or s where the
- * classification after step s stops one (gcp_block_classify's verdict).
+ * classification after step s stops one (gcp_block_classify's verdict;
+ * *stopped = 1 then, else 0: no lane of the tile stops after its last
+ * step, by the classification's own test, and fst is all 0).
  * fst holds the verdict of the last step taken (s >= 1). */
 #define GCP_RK4_TILE 128
 struct gcp_rk4_tile_args {
@@ -31,9 +33,24 @@ struct gcp_rk4_tile_args {
     double amax;              /* opts->adiabaticity_max (> 0: tested at each step's start) */
     double q, m;              /* [C], [kg] for the adiabaticity test */
 };
+/* cv: 7 arrays at the tile's first lane, the dipole form's B (3), |B|,
+ * C_x, C_y and P at each lane's state: written by the call's step kmax
+ * (after a call that took kmax steps they hold the form at the lanes'
+ * state), read by the first step's stage 1 where carried is non-zero
+ * (they then must hold the form at the state given) instead of forming it
+ * again.  Other forms neither read nor write them. */
 typedef int64_t (*gcp_rk4_tile_fn)(double *x, double *y, double *z, double *p, const double *mu,
-                                   int32_t *fst, size_t nt, int64_t kmax,
-                                   const struct gcp_rk4_tile_args *a);
+                                   int32_t *fst, double *const *cv, int carried, int32_t *stopped,
+                                   size_t nt, int64_t kmax, const struct gcp_rk4_tile_args *a);
+
+/* A statement a stepper makes in b->flags: b->Bx, By, Bz hold B at the
+ * live lanes' positions, the field's own block evaluation bit for bit
+ * (gc-rk4's fused step in a closed-form field writes them at the end of
+ * its steps, and clears the flag before anything moves a lane or its
+ * state otherwise).  The invariant observer's quiet pass then reads B
+ * there instead of forming it again (src/diag/invariants_quiet.c).  A
+ * private bit, above the public GCP_BLOCK_* ones. */
+#define GCP_BLOCK_B_AT_X (1u << 16)
 
 /* The tile function for a form (enum gcp_point_B_form) with or without E;
  * NULL where there is none. */
