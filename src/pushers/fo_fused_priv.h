@@ -429,7 +429,7 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
         _Alignas(64) double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                    \
-        _Alignas(64) double KB[2][4][GCP_FO_TILE]; /* a step's stash, the one before's */       \
+        _Alignas(64) double K[4][GCP_FO_TILE];                                                  \
         _Alignas(64) double UB[2][3][GCP_FO_TILE]; /* u- and u+, by the step's parity */        \
         _Alignas(64) double XH[3][GCP_FO_TILE];    /* x_1/2 of the step */                      \
         _Alignas(64) double S[9][GCP_FO_TILE], E2[3][GCP_FO_TILE];                              \
@@ -465,31 +465,19 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             int64_t nsp = 0;                                                                    \
-            /* step s: F into K, u- in UC, u+ into UN; step s - 1's in KP, UN, UC */            \
-            double (*restrict K)[GCP_FO_TILE] = KB[s & 1];                                      \
-            gcp_fo_ct_ *restrict KP = GCP_FO_CT_(KB[(s & 1) ^ 1]);                              \
+            /* step s: u- in UC, u+ into UN */                                                  \
             gcp_fo_ct_ *restrict UC = GCP_FO_CT_(UB[s & 1]);                                    \
             double (*restrict UN)[GCP_FO_TILE] = UB[(s & 1) ^ 1];                               \
-            if (s > 0) {                                                                        \
-                GCP_FO_IVDEP_                                                                   \
-                for (size_t i = 0; i < nt; i++) {                                               \
-                    GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                   \
-                    GCP_FO_GYRO_SAMPLE_(KP, UN, UC)                                             \
-                }                                                                               \
-                GCP_FO_GYRO_CLOSES_(FORM_, FT_, k0 + s - 1, KP, UN, UC)                         \
-            } else {                                                                            \
-                GCP_FO_IVDEP_                                                                   \
-                for (size_t i = 0; i < nt; i++) {                                               \
-                    GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                   \
-                }                                                                               \
+            GCP_FO_IVDEP_                                                                       \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                       \
             }                                                                                   \
             GCP_FO_IVDEP_                                                                       \
             for (size_t i = 0; i < nt; i++) {                                                   \
                 const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];           \
                 (void)bx, (void)by, (void)bz, (void)IG0;                                        \
-                const double Xh = XH[0][i], Yh = XH[1][i], Zh = XH[2][i];                       \
                 double U = UC[0][i], V = UC[1][i], W = UC[2][i];                                \
-                const double X = Xh, Y = Yh, Z = Zh;                                            \
+                const double X = XH[0][i], Y = XH[1][i], Z = XH[2][i];                          \
                 KICK_;                                                                          \
                 const double G1 = gcp_gamma_of_u(U, V, W);                                      \
                 if (CARRY_) G[i] = G1;                                                          \
@@ -501,25 +489,20 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
                 const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
                 const double u2 = U * U + V * V + W * W;                                        \
                 any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                           \
-                /* S_x: the first three of the step's sample */                                 \
-                S[0][i] += Xh;                                                                  \
-                S[1][i] += Yh;                                                                  \
-                S[2][i] += Zh;                                                                  \
             }                                                                                   \
+            GCP_FO_IVDEP_                                                                       \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                S[0][i] += XH[0][i];                                                            \
+                S[1][i] += XH[1][i];                                                            \
+                S[2][i] += XH[2][i];                                                            \
+                GCP_FO_GYRO_SAMPLE_(K, UC, UN)                                                  \
+            }                                                                                   \
+            GCP_FO_GYRO_CLOSES_(FORM_, FT_, k0 + s, K, UC, UN)                                  \
             if (any) {                                                                          \
                 *stopped = 1;                                                                   \
                 s++;                                                                            \
                 break;                                                                          \
             }                                                                                   \
-        }                                                                                       \
-        if (s > 0) { /* the last step's sample, phase test and closes */                        \
-            gcp_fo_ct_ *restrict KP = GCP_FO_CT_(KB[(s & 1) ^ 1]);                              \
-            gcp_fo_ct_ *restrict UM = GCP_FO_CT_(UB[(s & 1) ^ 1]);                              \
-            gcp_fo_ct_ *restrict UP = GCP_FO_CT_(UB[s & 1]);                                    \
-            int64_t nsp = 0;                                                                    \
-            GCP_FO_IVDEP_                                                                       \
-            for (size_t i = 0; i < nt; i++) GCP_FO_GYRO_SAMPLE_(KP, UM, UP)                     \
-            GCP_FO_GYRO_CLOSES_(FORM_, FT_, k0 + s - 1, KP, UM, UP)                             \
         }                                                                                       \
         for (size_t i = 0; i < nt; i++) {                                                       \
             ux[i] = UB[s & 1][0][i], uy[i] = UB[s & 1][1][i], uz[i] = UB[s & 1][2][i];          \
