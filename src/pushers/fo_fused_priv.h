@@ -344,8 +344,8 @@ struct gcp_fo_fused {
     }
 
 /* Of lane i, the part of a step's sample (fo_gyro_priv.h) that needs its
- * field vector KF and its u- and u+ (UM, UP) -- S_r, S_p, S_p2, S_F -- and
- * the phase test: u.e2 turns negative first, and the gyration ends where
+ * field vector KF and its u- and u+ (UM, UP) -- S_r, S_p, S_p2, S_F; S_x
+ * is added beside it -- and the phase test: u.e2 turns negative first, and the gyration ends where
  * it goes from > 0 to <= 0 (sp[i], counted in nsp; LF: 'left', set from
  * the steps before, since at a gyration's start u.e2 = 0 up to rounding). */
 #define GCP_FO_GYRO_SAMPLE_(KF, UM, UP)                                                         \
@@ -404,21 +404,21 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
  * gyration ends in the step (~1 in 20) then close it, 8 at a time
  * (GCP_FO_GYRO_CLOSES_: the record, from the sums).
  *
- * Where the work goes (issue 12): the second loop, with the kick, was
- * bound by its stores -- 22 vectors a group of 8 lanes, against 8 in the
- * plain tile -- while the first, with the field, waits on its divisions
- * and square roots.  So the second loop adds only S_x (x_1/2 is its input),
- * and the rest of step k's sample and its phase test are done in the first
- * loop of step k + 1, whose stores have room, and step k's closes after
- * it (the last step's in a pass after the loop): u ping-pongs between two
- * buffers by the step's parity (the second loop reads u- from one and
- * writes u+ to the other, so that u- needs no store of its own), the
- * stash K too (step k's F survives step k + 1's first loop), and x_1/2
- * goes to XH, not x (x_k+1 survives it for the close).  The sums, e2 and
- * 'left' are the tile's own arrays during the call (copied in and out
- * once: a pointer a quantity spilled registers in the loops).  The same
- * operations on the same values in the same order per lane as a step
- * done whole: bit-identical. */
+ * Where the work goes (issue 12): with the sample and the phase test in
+ * the kick's loop, that loop stored 22 vectors a group of 8 lanes against
+ * the plain tile's 8, and its body grew past what the out-of-order window
+ * holds while it overlaps the sqrt/division chains of successive lanes (it took
+ * ~3x the plain loop's time; in the field's loop instead, ~2x that one's).
+ * So each step is three loops: the field (x_1/2 into XH, not x, so that
+ * x_k+1 is there for the close), the kick (as in the plain tile), and the
+ * sample and phase test alone, a loop of additions and multiplications
+ * with no long chain, then the closes.  u ping-pongs between two buffers
+ * by the step's parity: the kick reads u- from one and writes u+ to the
+ * other, so that u- needs no store of its own.  The sums, e2 and 'left'
+ * are the tile's own arrays during the call (copied in and out once: a
+ * pointer a quantity spilled registers in the loops).  The same operations
+ * on the same values in the same order per lane as one loop did:
+ * bit-identical. */
 #define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_)                      \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
