@@ -90,6 +90,22 @@ static int fo_rec_cadence(const struct gcp_observer *o, const struct lane *L,
     return !(dot - fabs(crs) > margin);
 }
 
+/* The lines of a struct lane (~750 bytes; 2048 lanes do not fit in L2)
+ * that a record's inline step reads (have_s1, s1, jd1, J_acc, eq_*; mub;
+ * the stream contour's cprev, sprev; st_*, had_eq, s_k, d_k), fetched
+ * FO_REC_AHEAD records before it: the records of a call visit the lanes
+ * in the tiles' order, one record a lane a gyration, so each lane's lines
+ * come from L3 or memory. */
+#define FO_REC_AHEAD 8
+static inline void fo_rec_prefetch(const struct lane *L)
+{
+    __builtin_prefetch(&L->have_s1);
+    __builtin_prefetch(&L->J_acc);
+    __builtin_prefetch(&L->mub);
+    __builtin_prefetch(&L->cst.cprev);
+    __builtin_prefetch(&L->s_k);
+}
+
 /* The fused step's records of a call (o->g.rec, in order): |B| at their X
  * in one block evaluation per time (a static field: one for all); then,
  * in one vectorised pass over the records, |B|, mu (fo_record_B's) and the
@@ -142,6 +158,7 @@ void gcp_obs_fo_records(struct gcp_observer *o)
     for (int64_t k = 0; k < n; k++) {
         const struct gcp_fo_gyro_rec *r = &rec[k];
         struct lane *L = &o->lane[r->lane];
+        if (k + FO_REC_AHEAD < n) fo_rec_prefetch(&o->lane[rec[k + FO_REC_AHEAD].lane]);
         const double B = Bx[k], mu = By[k], jd = Bz[k];
         /* a first sample or a mirror point: the whole of stream_sample */
         if (!L->have_s1 || (L->s1.ppar > 0) != (r->ppar > 0)) {

@@ -236,37 +236,39 @@ struct gcp_fo_fused {
  * slower here, AMD EPYC Zen 4, than the 8 scalar moves). */
 #define GCP_FO_NOVEC_ __asm__ volatile("")
 
-/* The close of the gyrations that end in a step (GCP_FO_GYRO_TILE_DEFINE_)
+/* The close of the gyrations that end in push step KK (GCP_FO_GYRO_TILE_DEFINE_)
  * for the 8 tile lanes IX[0..7] (padded: a repeat of a lane before), the
- * first NK of them real: their state copied into 8-lane arrays (in8, ks8
- * of the tile function: a call's first close fills all 8 slots, a later
- * one the NK real lanes only -- the slots past them keep a lane of an
- * earlier close, whose values go through the vector loop unused; a step
- * ends ~3 gyrations in a 64-lane tile at 0.05 gyro, so this copies ~3
- * lanes' 28 values, not 8 lanes'), the
- * rebuilt step before and gcp_fo_gyro_close_vals in one loop over the 8
- * (one vector a value: the divisions and square roots of 8 lanes at the
- * price of one's), then the new gyrations' state and the kept records
- * written back in lane order.  Closed one lane at a time, the scalar close
- * and rebuild were ~40% of the tile's time.  The same operations on each
- * lane's values as one lane at a time: bit-identical. */
-#define GCP_FO_GYRO_CLOSE8_(FORM_, FT_, IX, NK)                                                 \
+ * first NK of them real; KF: that step's field vectors, UM, UP: its u- and
+ * u+ (the tile's buffers of that step).  Their state is copied into 8-lane
+ * arrays (in8, ks8 of the tile function: a call's first close fills all 8
+ * slots, a later one the NK real lanes only -- the slots past them keep a
+ * lane of an earlier close, whose values go through the vector loop
+ * unused; a step ends ~6 gyrations in a 128-lane tile at 0.05 gyro, so
+ * this copies ~6 lanes' 28 values, not 8 lanes'), the rebuilt step before
+ * and gcp_fo_gyro_close_vals in one loop over the 8 (one vector a value:
+ * the divisions and square roots of 8 lanes at the price of one's), then
+ * the new gyrations' state and the kept records written back in lane
+ * order.  Closed one lane at a time, the scalar close and rebuild were
+ * ~40% of the tile's time.  The same operations on each lane's values as
+ * one lane at a time: bit-identical. */
+#define GCP_FO_GYRO_CLOSE8_(FORM_, FT_, IX, NK, KK, KF, UM, UP)                                 \
     {                                                                                           \
         const int64_t *restrict ix8 = (IX);                                                     \
         _Alignas(64) double out8[16][8], rv8[7][8], ok8[8];                                     \
-        const int64_t kk = k0 + s;                                                              \
+        const int64_t kk = (KK);                                                                \
         const int nfill = in8_set ? (int)(NK) : 8;                                              \
         in8_set = 1;                                                                            \
         for (int l = 0; l < nfill; l++) {                                                       \
             const int64_t i = ix8[l];                                                           \
-            in8[0][l] = K[0][i], in8[1][l] = K[1][i], in8[2][l] = K[2][i];                      \
-            in8[3][l] = um[0][i], in8[4][l] = um[1][i], in8[5][l] = um[2][i];                   \
-            in8[6][l] = ux[i], in8[7][l] = uy[i], in8[8][l] = uz[i];                            \
+            in8[0][l] = KF[0][i], in8[1][l] = KF[1][i], in8[2][l] = KF[2][i];                   \
+            in8[3][l] = UM[0][i], in8[4][l] = UM[1][i], in8[5][l] = UM[2][i];                   \
+            in8[6][l] = UP[0][i], in8[7][l] = UP[1][i], in8[8][l] = UP[2][i];                   \
             in8[9][l] = x[i], in8[10][l] = y[i], in8[11][l] = z[i], in8[12][l] = hg[i];         \
-            in8[13][l] = e20[i], in8[14][l] = e21[i], in8[15][l] = e22[i];                      \
-            in8[16][l] = s0[i], in8[17][l] = s1[i], in8[18][l] = s2[i], in8[19][l] = s3[i];     \
-            in8[20][l] = s4[i], in8[21][l] = s5[i], in8[22][l] = s6[i], in8[23][l] = s7[i];     \
-            in8[24][l] = s8[i], in8[25][l] = w0s[i], in8[26][l] = jcs[i];                       \
+            in8[13][l] = E2[0][i], in8[14][l] = E2[1][i], in8[15][l] = E2[2][i];                \
+            in8[16][l] = S[0][i], in8[17][l] = S[1][i], in8[18][l] = S[2][i];                   \
+            in8[19][l] = S[3][i], in8[20][l] = S[4][i], in8[21][l] = S[5][i];                   \
+            in8[22][l] = S[6][i], in8[23][l] = S[7][i], in8[24][l] = S[8][i];                   \
+            in8[25][l] = w0s[i], in8[26][l] = jcs[i];                                           \
             ks8[l] = kst[i];                                                                    \
             GCP_FO_NOVEC_;                                                                      \
         }                                                                                       \
@@ -277,12 +279,12 @@ struct gcp_fo_fused {
             const double g1 = in8[12][l]; /* h / gamma, gamma the same for u- and u+ */         \
             const double xh[3] = {in8[9][l] - u1[0] * g1, in8[10][l] - u1[1] * g1,              \
                                   in8[11][l] - u1[2] * g1};                                     \
-            /* Boris's t = a B, a = q dt / (2 m gamma) */                                      \
+            /* Boris's t = a B, a = q dt / (2 m gamma) */                                       \
             const double ab = 0.5 * q * dt / m * (g1 / h), scale = FT_ ? ab : 1.0;              \
             double f[9], fp[9];                                                                 \
             gcp_fo_gyro_mid_sample(xh, F, u0, u1, f);                                           \
-            { /* the step before's sample (fo_gyro_priv.h) */                                  \
-                const double xp[3] = {xh[0] - 2.0 * u0[0] * g1, xh[1] - 2.0 * u0[1] * g1,         \
+            { /* the step before's sample (fo_gyro_priv.h) */                                   \
+                const double xp[3] = {xh[0] - 2.0 * u0[0] * g1, xh[1] - 2.0 * u0[1] * g1,       \
                                       xh[2] - 2.0 * u0[2] * g1};                                \
                 double Bx_, By_, Bz_;                                                           \
                 FORM_(xp[0], xp[1], xp[2], Bx_, By_, Bz_);                                      \
@@ -294,9 +296,9 @@ struct gcp_fo_fused {
                 gcp_fo_gyro_mid_sample(xp, Fp, up, u0, fp);                                     \
             }                                                                                   \
             const double e2[3] = {in8[13][l], in8[14][l], in8[15][l]};                          \
-            double S[9], fn[9], e2n[3], rv[7], w0n, jcn;                                        \
-            for (int j = 0; j < 9; j++) S[j] = in8[16 + j][l];                                  \
-            ok8[l] = gcp_fo_gyro_close_vals(kk, ks8[l], in8[25][l], in8[26][l], e2, S, t0, dt,   \
+            double Sl[9], fn[9], e2n[3], rv[7], w0n, jcn;                                       \
+            for (int j = 0; j < 9; j++) Sl[j] = in8[16 + j][l];                                 \
+            ok8[l] = gcp_fo_gyro_close_vals(kk, ks8[l], in8[25][l], in8[26][l], e2, Sl, t0, dt, \
                                             q, m, F, scale, f, fp, u0, u1, rv, fn, e2n, &w0n,   \
                                             &jcn);                                              \
             for (int j = 0; j < 7; j++) rv8[j][l] = rv[j];                                      \
@@ -305,13 +307,13 @@ struct gcp_fo_fused {
             out8[12][l] = w0n, out8[13][l] = jcn;                                               \
         }                                                                                       \
         for (int l = 0; l < (NK); l++) {                                                        \
-            /* the next gyration begins (gcp_fo_gyro_mid_start) with step k's rest */          \
+            /* the next gyration begins (gcp_fo_gyro_mid_start) with step k's rest */           \
             const int64_t i = ix8[l];                                                           \
-            left[i] = 0, kst[i] = kk, w0s[i] = out8[12][l], jcs[i] = out8[13][l];               \
-            s0[i] = out8[0][l], s1[i] = out8[1][l], s2[i] = out8[2][l], s3[i] = out8[3][l];     \
-            s4[i] = out8[4][l], s5[i] = out8[5][l], s6[i] = out8[6][l], s7[i] = out8[7][l];     \
-            s8[i] = out8[8][l];                                                                 \
-            e20[i] = out8[9][l], e21[i] = out8[10][l], e22[i] = out8[11][l];                    \
+            LF[i] = 0, kst[i] = kk, w0s[i] = out8[12][l], jcs[i] = out8[13][l];                 \
+            S[0][i] = out8[0][l], S[1][i] = out8[1][l], S[2][i] = out8[2][l];                   \
+            S[3][i] = out8[3][l], S[4][i] = out8[4][l], S[5][i] = out8[5][l];                   \
+            S[6][i] = out8[6][l], S[7][i] = out8[7][l], S[8][i] = out8[8][l];                   \
+            E2[0][i] = out8[9][l], E2[1][i] = out8[10][l], E2[2][i] = out8[11][l];              \
             GCP_FO_NOVEC_;                                                                      \
             if (ok8[l] == 0.0) continue;                                                        \
             struct gcp_fo_gyro_rec *rec = gy->rec + gy->nrec++;                                 \
@@ -325,15 +327,98 @@ struct gcp_fo_fused {
         }                                                                                       \
     }
 
+/* The first half of a lane's step in the gyro tile (GCP_FO_LANE1_'s
+ * operations with u from the tile's buffer UC): the half drift to x_1/2,
+ * into XH, the field there and the stash. */
+#define GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                               \
+    {                                                                                           \
+        const double g0_ = hg[i];                                                               \
+        const double X_ = x[i] + UC[0][i] * g0_, Y_ = y[i] + UC[1][i] * g0_,                    \
+                     Z_ = z[i] + UC[2][i] * g0_;                                                \
+        const double IG0 = CARRY_ ? 1.0 / G[i] : 1.0;                                           \
+        (void)IG0;                                                                              \
+        double bx, by, bz;                                                                      \
+        FORM_(X_, Y_, Z_, bx, by, bz);                                                          \
+        XH[0][i] = X_, XH[1][i] = Y_, XH[2][i] = Z_;                                            \
+        STASH_;                                                                                 \
+    }
+
+/* Of lane i, the part of a step's sample (fo_gyro_priv.h) that needs its
+ * field vector KF and its u- and u+ (UM, UP) -- S_r, S_p, S_p2, S_F; S_x
+ * is added beside it -- and the phase test: u.e2 turns negative first, and the gyration ends where
+ * it goes from > 0 to <= 0 (sp[i], counted in nsp; LF: 'left', set from
+ * the steps before, since at a gyration's start u.e2 = 0 up to rounding). */
+#define GCP_FO_GYRO_SAMPLE_(KF, UM, UP)                                                         \
+    {                                                                                           \
+        const double F0 = KF[0][i], F1 = KF[1][i], F2 = KF[2][i];                               \
+        const double U0 = UM[0][i], V0 = UM[1][i], W0 = UM[2][i];                               \
+        const double U1 = UP[0][i], V1 = UP[1][i], W1 = UP[2][i];                               \
+        /* us = u- + u+ = 2 u_1/2 */                                                            \
+        const double usx = U0 + U1, usy = V0 + V1, usz = W0 + W1;                               \
+        const double fu = F0 * usx + F1 * usy + F2 * usz;                                       \
+        S[3][i] += F1 * usz - F2 * usy;                                                         \
+        S[4][i] += F2 * usx - F0 * usz;                                                         \
+        S[5][i] += F0 * usy - F1 * usx;                                                         \
+        S[6][i] += fu;                                                                          \
+        S[7][i] += fu * fu;                                                                     \
+        S[8][i] += F0 * F0 + F1 * F1 + F2 * F2;                                                 \
+        const double d0 = U0 * E2[0][i] + V0 * E2[1][i] + W0 * E2[2][i];                        \
+        const double d1 = U1 * E2[0][i] + V1 * E2[1][i] + W1 * E2[2][i];                        \
+        const int64_t sf = LF[i] & (d0 > 0) & (d1 <= 0);                                        \
+        LF[i] |= d1 < 0;                                                                        \
+        sp[i] = sf;                                                                             \
+        nsp += sf;                                                                              \
+    }
+
+/* The lanes whose gyration ended in push step KK (flagged in sp by
+ * GCP_FO_GYRO_SAMPLE_), found 8 at a time -- a bit a lane, 64 lanes a word
+ * (a vector or-reduction), then the set bits in order: no branch a lane --
+ * and closed 8 at a time (GCP_FO_GYRO_CLOSE8_). */
+#define GCP_FO_GYRO_CLOSES_(FORM_, FT_, KK, KF, UM, UP)                                         \
+    if (nsp > 0) {                                                                              \
+        int64_t n = 0;                                                                          \
+        for (size_t j = 0; j < nt; j += 64) {                                                   \
+            uint64_t bits = 0;                                                                  \
+            const size_t je = nt - j < 64 ? nt - j : 64;                                        \
+            for (size_t i = 0; i < je; i++) bits |= (uint64_t)sp[j + i] << i;                   \
+            for (; bits; bits &= bits - 1) ix[n++] = (int64_t)j + __builtin_ctzll(bits);        \
+        }                                                                                       \
+        /* padded to 8 with the last lane: the same values, the record kept once */             \
+        for (int64_t c = n; c < ((n + 7) & ~(int64_t)7); c++) ix[c] = ix[n - 1];                \
+        for (int64_t c0 = 0; c0 < n; c0 += 8)                                                   \
+            GCP_FO_GYRO_CLOSE8_(FORM_, FT_, ix + c0, n - c0 < 8 ? n - c0 : 8, KK, KF, UM, UP)   \
+    }
+
+/* A row of a gyro tile's buffer, read only. */
+typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buffer */
+#define GCP_FO_CT_(P) ((gcp_fo_ct_ *)(P))
+
 /* One gyro tile function (gcp_fo_gyro_tile_fn): the split tile loop of
  * GCP_FO_TILE_DEFINE_ (STASH_, KICK_ as there: K[0..2] is the field vector
- * F of the step, B or, with FT_ = 1, Boris's t = (q dt / 2 m gamma) B) with
- * the observer's per-step work in its second loop: a sample of the step at
- * its middle, where the push has everything it needs (fo_gyro_priv.h: the
- * point x_1/2, F there, u- and u+), added to the lane's nine raw sums, and
- * the phase test -- no field evaluation, no square root, no division.  The
- * lanes whose gyration ends in the step (flagged in sp, ~1 in 20) then
- * close it, 8 at a time (GCP_FO_GYRO_CLOSE8_: the record, from the sums). */
+ * F of the step, B or, with FT_ = 1, Boris's t = (q dt / 2 m gamma) B;
+ * STASH_ must not read u, which here lives in the tile's buffers) with the
+ * observer's per-step work: a sample of each step at its middle, where the
+ * push has everything it needs (fo_gyro_priv.h: the point x_1/2, F there,
+ * u- and u+), added to the lane's nine raw sums, and the phase test -- no
+ * field evaluation, no square root, no division.  The lanes whose
+ * gyration ends in the step (~1 in 20) then close it, 8 at a time
+ * (GCP_FO_GYRO_CLOSES_: the record, from the sums).
+ *
+ * Where the work goes (issue 12): with the sample and the phase test in
+ * the kick's loop, that loop stored 22 vectors a group of 8 lanes against
+ * the plain tile's 8, and its body grew past what the out-of-order window
+ * holds while it overlaps the sqrt/division chains of successive lanes (it took
+ * ~3x the plain loop's time; in the field's loop instead, ~2x that one's).
+ * So each step is three loops: the field (x_1/2 into XH, not x, so that
+ * x_k+1 is there for the close), the kick (as in the plain tile), and the
+ * sample and phase test alone, a loop of additions and multiplications
+ * with no long chain, then the closes.  u ping-pongs between two buffers
+ * by the step's parity: the kick reads u- from one and writes u+ to the
+ * other, so that u- needs no store of its own.  The sums, e2 and 'left'
+ * are the tile's own arrays during the call (copied in and out once: a
+ * pointer a quantity spilled registers in the loops).  The same operations
+ * on the same values in the same order per lane as one loop did:
+ * bit-identical. */
 #define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_)                      \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
@@ -343,25 +428,28 @@ struct gcp_fo_fused {
     {                                                                                           \
         const double q = a->q, m = a->m, dt = a->dt, h = a->h;                                  \
         const double rin2 = a->rin2, rout2 = a->rout2, zmax = a->zmax;                          \
-        _Alignas(64) double G[GCP_FO_TILE], hg[GCP_FO_TILE], K[4][GCP_FO_TILE];                \
-        _Alignas(64) int64_t sp[GCP_FO_TILE];                                                   \
-        _Alignas(64) double um[3][GCP_FO_TILE]; /* u- of the step, for the rare lanes */       \
-        int64_t ix[GCP_FO_TILE + 8];            /* the rare lanes of the step */               \
-        /* the closes' 8-lane inputs (GCP_FO_GYRO_CLOSE8_), set by the call's first */         \
+        _Alignas(64) double G[GCP_FO_TILE], hg[GCP_FO_TILE];                                    \
+        _Alignas(64) double K[4][GCP_FO_TILE];                                                  \
+        _Alignas(64) double UB[2][3][GCP_FO_TILE]; /* u- and u+, by the step's parity */        \
+        _Alignas(64) double XH[3][GCP_FO_TILE];    /* x_1/2 of the step */                      \
+        _Alignas(64) double S[9][GCP_FO_TILE], E2[3][GCP_FO_TILE];                              \
+        _Alignas(64) int64_t LF[GCP_FO_TILE], sp[GCP_FO_TILE];                                  \
+        int64_t ix[GCP_FO_TILE + 8]; /* the rare lanes of the step */                           \
+        /* the closes' 8-lane inputs (GCP_FO_GYRO_CLOSE8_), set by the call's first */          \
         _Alignas(64) double in8[29][8];                                                         \
         _Alignas(64) int64_t ks8[8];                                                            \
         int in8_set = 0;                                                                        \
         (void)G;                                                                                \
-        int64_t *restrict left = gy->left + i0;                                                 \
-        double *restrict e20 = gy->e2[0] + i0, *restrict e21 = gy->e2[1] + i0,                  \
-                         *restrict e22 = gy->e2[2] + i0;                                        \
         int64_t *restrict kst = gy->kstart + i0;                                                \
         double *restrict w0s = gy->w0 + i0, *restrict jcs = gy->jc + i0;                        \
-        double *restrict s0 = gy->sum[0] + i0, *restrict s1 = gy->sum[1] + i0,                  \
-                         *restrict s2 = gy->sum[2] + i0, *restrict s3 = gy->sum[3] + i0,        \
-                         *restrict s4 = gy->sum[4] + i0, *restrict s5 = gy->sum[5] + i0,        \
-                         *restrict s6 = gy->sum[6] + i0, *restrict s7 = gy->sum[7] + i0,        \
-                         *restrict s8 = gy->sum[8] + i0;                                        \
+        for (size_t i = 0; i < nt; i++) {                                                       \
+            UB[0][0][i] = ux[i], UB[0][1][i] = uy[i], UB[0][2][i] = uz[i];                      \
+            LF[i] = gy->left[i0 + i];                                                           \
+        }                                                                                       \
+        for (int j = 0; j < 9; j++)                                                             \
+            for (size_t i = 0; i < nt; i++) S[j][i] = gy->sum[j][i0 + i];                       \
+        for (int j = 0; j < 3; j++)                                                             \
+            for (size_t i = 0; i < nt; i++) E2[j][i] = gy->e2[j][i0 + i];                       \
         if (hg_mode & GCP_FO_HG_IN) {                                                           \
             for (size_t i = 0; i < nt; i++) hg[i] = hg_io[i];                                   \
             if (CARRY_)                                                                         \
@@ -377,64 +465,53 @@ struct gcp_fo_fused {
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             int64_t nsp = 0;                                                                    \
+            /* step s: u- in UC, u+ into UN */                                                  \
+            gcp_fo_ct_ *restrict UC = GCP_FO_CT_(UB[s & 1]);                                    \
+            double (*restrict UN)[GCP_FO_TILE] = UB[(s & 1) ^ 1];                               \
+            GCP_FO_IVDEP_                                                                       \
             for (size_t i = 0; i < nt; i++) {                                                   \
-                GCP_FO_LANE1_(FORM_, CARRY_)                                                    \
-                x[i] = X_, y[i] = Y_, z[i] = Z_;                                                \
-                STASH_;                                                                         \
+                GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                       \
             }                                                                                   \
             GCP_FO_IVDEP_                                                                       \
             for (size_t i = 0; i < nt; i++) {                                                   \
                 const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];           \
                 (void)bx, (void)by, (void)bz, (void)IG0;                                        \
-                const double Xh = x[i], Yh = y[i], Zh = z[i];                                   \
-                const double U0 = ux[i], V0 = uy[i], W0 = uz[i];                                \
-                um[0][i] = U0, um[1][i] = V0, um[2][i] = W0;                                    \
-                GCP_FO_LANE2_(KICK_, CARRY_, Xh, Yh, Zh, 1)                                     \
-                /* the sample (fo_gyro_priv.h): us = u- + u+ = 2 u_1/2 */                      \
-                const double usx = U0 + U, usy = V0 + V, usz = W0 + W;                          \
-                const double fu = bx * usx + by * usy + bz * usz;                               \
-                s0[i] += Xh;                                                                    \
-                s1[i] += Yh;                                                                    \
-                s2[i] += Zh;                                                                    \
-                s3[i] += by * usz - bz * usy;                                                   \
-                s4[i] += bz * usx - bx * usz;                                                   \
-                s5[i] += bx * usy - by * usx;                                                   \
-                s6[i] += fu;                                                                    \
-                s7[i] += fu * fu;                                                               \
-                s8[i] += bx * bx + by * by + bz * bz;                                           \
-                /* the phase: u.e2 turns negative first, ends from > 0 to <= 0 */              \
-                const double d0 = U0 * e20[i] + V0 * e21[i] + W0 * e22[i];                      \
-                const double d1 = U * e20[i] + V * e21[i] + W * e22[i];                         \
-                /* left from the steps before: at the start u.e2 = 0 up to rounding */        \
-                const int64_t sf = left[i] & (d0 > 0) & (d1 <= 0);                              \
-                left[i] |= d1 < 0;                                                              \
-                sp[i] = sf;                                                                     \
-                nsp += sf;                                                                      \
+                double U = UC[0][i], V = UC[1][i], W = UC[2][i];                                \
+                const double X = XH[0][i], Y = XH[1][i], Z = XH[2][i];                          \
+                KICK_;                                                                          \
+                const double G1 = gcp_gamma_of_u(U, V, W);                                      \
+                if (CARRY_) G[i] = G1;                                                          \
+                const double g1 = h / G1;                                                       \
+                const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                 \
+                x[i] = X1, y[i] = Y1, z[i] = Z1;                                                \
+                UN[0][i] = U, UN[1][i] = V, UN[2][i] = W;                                       \
+                hg[i] = g1;                                                                     \
+                const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
+                const double u2 = U * U + V * V + W * W;                                        \
+                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                           \
             }                                                                                   \
-            /* the rare lanes, found 8 at a time (one vector test a group), */      \
-            /* closed 8 at a time (GCP_FO_GYRO_CLOSE8_) */                          \
-            if (nsp > 0) {                                                                      \
-                /* a bit a lane, 64 lanes a word (a vector or-reduction), */          \
-                /* then the set bits in order: no branch a lane */                   \
-                int64_t n = 0;                                                                  \
-                for (size_t j = 0; j < nt; j += 64) {                                           \
-                    uint64_t bits = 0;                                                          \
-                    const size_t je = nt - j < 64 ? nt - j : 64;                                \
-                    for (size_t i = 0; i < je; i++) bits |= (uint64_t)sp[j + i] << i;           \
-                    for (; bits; bits &= bits - 1)                                              \
-                        ix[n++] = (int64_t)j + __builtin_ctzll(bits);                           \
-                }                                                                               \
-                /* padded to 8 with the last lane: the same values, the record kept once */    \
-                for (int64_t c = n; c < ((n + 7) & ~(int64_t)7); c++) ix[c] = ix[n - 1];        \
-                for (int64_t c0 = 0; c0 < n; c0 += 8)                                           \
-                    GCP_FO_GYRO_CLOSE8_(FORM_, FT_, ix + c0, n - c0 < 8 ? n - c0 : 8)           \
+            GCP_FO_IVDEP_                                                                       \
+            for (size_t i = 0; i < nt; i++) {                                                   \
+                S[0][i] += XH[0][i];                                                            \
+                S[1][i] += XH[1][i];                                                            \
+                S[2][i] += XH[2][i];                                                            \
+                GCP_FO_GYRO_SAMPLE_(K, UC, UN)                                                  \
             }                                                                                   \
+            GCP_FO_GYRO_CLOSES_(FORM_, FT_, k0 + s, K, UC, UN)                                  \
             if (any) {                                                                          \
                 *stopped = 1;                                                                   \
                 s++;                                                                            \
                 break;                                                                          \
             }                                                                                   \
         }                                                                                       \
+        for (size_t i = 0; i < nt; i++) {                                                       \
+            ux[i] = UB[s & 1][0][i], uy[i] = UB[s & 1][1][i], uz[i] = UB[s & 1][2][i];          \
+            gy->left[i0 + i] = LF[i];                                                           \
+        }                                                                                       \
+        for (int j = 0; j < 9; j++)                                                             \
+            for (size_t i = 0; i < nt; i++) gy->sum[j][i0 + i] = S[j][i];                       \
+        for (int j = 0; j < 3; j++)                                                             \
+            for (size_t i = 0; i < nt; i++) gy->e2[j][i0 + i] = E2[j][i];                       \
         if (hg_mode & GCP_FO_HG_OUT)                                                            \
             for (size_t i = 0; i < nt; i++) hg_io[i] = hg[i];                                   \
         return s;                                                                               \
