@@ -273,7 +273,8 @@ FAST_AI int64_t fast_steps(const int form, double *restrict x, double *restrict 
 
 /* The dipole's stop test skipped where it is proved false (the uniform
  * forms' gcp_fo_nr_cannot_stop does not cover an inner bound; the test is
- * ~10% of this tier's step: bench figures in the commit).  A lane at
+ * ~10% of this tier's dipole step: 1.51 -> 1.36 ns a lane-step, 1024
+ * lanes, the tiles timed in one process in turn with kernel (b), Zen 5).  A lane at
  * distance m = min(r - r_in, r_out - r, z_max - |z|) from the bounds, with
  * speed U = |u|, stays inside for K steps when every step moves it by at
  * most d and K d <= m / 2:
