@@ -8,18 +8,22 @@
  * that bounds the step (bench_floor: the 2 sqrt + 4 divisions alone take
  * ~1.2 ns a lane-step, the whole of limit kernel (b)).  This tier gives
  * that up for the same scheme in a different arithmetic:
- *   - 1/r from vrsqrt14pd (relative error < 2^-14) and two Newton steps on
- *     the FMA pipes,  e/2 = 1/2 - (x/2) y y,  y <- y + y (e/2)  (one fma
- *     for the residual; Markstein, IBM J. Res. Dev. 34 (1990) 111): each
- *     step squares the error, 2^-14 -> 2^-28 -> 2^-56, so the result is
- *     within ~1 ulp (tests/unit/test_boris_fast.c measures it), and
- *     c/r^5 = c (1/r)^5 costs no division;
+ *   - 1/r as 1/sqrt(r2) (two roundings) and c/r^5 = c (1/r)^5: one
+ *     division fewer than c / (r2 r2 sqrt(r2));
  *   - fused multiply-adds wherever a product meets a sum;
- *   - the explicit AVX-512 vectors below, two lane groups interleaved.
- * Which reciprocals go to the estimates and which stay on the divide unit
- * was measured (limit_bench's fW / mW: the two units work at once): with
- * all three on the FMA pipes (2 rsqrt + 1 rcp, 8 operations each) the FMA
- * pipes bound the step and it ran slower than this mix; see FAST_IEEE_*.
+ *   - the explicit AVX-512 vectors below, two lane groups interleaved;
+ *   - in the dipole, the stop test only where a lane may reach a bound
+ *     (free_steps proves the others cannot: the verdicts are unchanged).
+ * Each reciprocal can instead come from vrsqrt14pd / vrcp14pd (relative
+ * error < 2^-14) and two Newton steps on the FMA pipes,
+ * e/2 = 1/2 - (x/2) y y,  y <- y + y (e/2)  (one fma for the residual;
+ * Markstein, IBM J. Res. Dev. 34 (1990) 111): each step squares the error,
+ * 2^-14 -> 2^-28 -> 2^-56, so the result is within ~1 ulp
+ * (tests/unit/test_boris_fast.c measures it).  Which reciprocals go to the
+ * estimates and which stay on the divide unit was measured (limit_bench's
+ * fW / mW: the two units work at once; FAST_IEEE_*): on Zen 5 none --
+ * the divide unit's 2 sqrt and 3 divisions a vector then take about as
+ * long as the ~43 operations left on the FMA pipes.
  * Not IEEE rounded: a step differs from the IEEE tier's in its last few
  * bits (a few ulp of |u| and |x|: the tests), and runs then drift apart as
  * round-off does; the physics is the same scheme's -- |u| kept by the
@@ -27,7 +31,7 @@
  *
  * A dipole step, per lane (ig = 1/gamma(u) kept from the last step, hg =
  * h ig, h = dt/2, qdt2m = q dt/2m):
- *   x_1/2 = x + u hg,  r2 = max(|x_1/2|^2, R2_MIN),  ir = rsqrt(r2),
+ *   x_1/2 = x + u hg,  r2 = max(|x_1/2|^2, R2_MIN),  ir = 1/sqrt(r2),
  *   t = (qdt2m c) ig ir^5 (-3 z x, -3 z y, r2 - 3 z^2)  (gcp_point_B_dipole),
  *   s = 2 / (1 + t^2),  u+ = rotate(u; t, s)  (gcp_boris_rotate_ts_),
  *   ig = 1/sqrt(1 + |u+|^2/c^2),  hg = h ig,  x1 = x_1/2 + u+ hg
@@ -99,9 +103,15 @@ FAST_AI fw rcp_nr(fw x)
  * once (limit_bench's mW).  Chosen by measurement on the development
  * machine (AMD EPYC, Zen 4; bench_push limit-fo, CPU time, alternating):
  * dipole 8192 lanes, ns a lane-step with the IEEE tile in the same run
- * ~1.95: S G R = 1 1 0 (this) ~1.6, 0 0 0 (all Newton) ~1.8, 1 0 0 ~1.7,
- * 1 1 1 (no estimates) ~1.6 -- most of the gain is the fused operations,
- * the shorter stop test and the interleaved halves, not the estimates. */
+ * ~1.95: S G R = 1 1 0 ~1.6, 0 0 0 (all Newton) ~1.8, 1 0 0 ~1.7, 1 1 1 (no
+ * estimates) ~1.6 -- most of the gain is the fused operations, the shorter
+ * stop test and the interleaved halves, not the estimates.  Measured again
+ * in one process, the tiles called in turn with kernel (b) between them
+ * (15 rounds, medians of the per-round ratios to (b), Zen 5, loaded
+ * machine): 1 1 1 (this) 1.08x (b), 1 1 0 1.12-1.14x -- the step's ~43
+ * multiplications and fused operations and its 2 sqrt and 3 divisions
+ * then take about as long on their units (~22 cycles a vector each), where
+ * the Newton 1/r put ~7 more on the FMA pipes. */
 #ifndef FAST_IEEE_S
 #define FAST_IEEE_S 1 /* s = 2 / (1 + t^2) */
 #endif
@@ -109,7 +119,7 @@ FAST_AI fw rcp_nr(fw x)
 #define FAST_IEEE_G 1 /* 1/gamma */
 #endif
 #ifndef FAST_IEEE_R
-#define FAST_IEEE_R 0 /* 1/sqrt(r2) */
+#define FAST_IEEE_R 1 /* 1/sqrt(r2) */
 #endif
 FAST_AI fw rsqrt_ieee(fw x) { return 1.0 / _mm512_sqrt_pd(x); }
 #define RSQRT_G(x) (FAST_IEEE_G ? rsqrt_ieee(x) : rsqrt_nr(x))
@@ -139,6 +149,7 @@ enum { F_DIPOLE_B, F_UNIFORM_B, F_UNIFORM_EB };
 /* What a group's step needs, fixed for the call. */
 struct fast_k {
     double h, qdt2m, qc, rin2, rout2, zmax, B0, B1, B2, qE0, qE1, qE2;
+    double rin, rout; /* sqrt(rin2), sqrt(rout2): the dipole's proof (free_steps) */
 };
 
 /* One step of the W UNR lanes at i0 in two halves (the header's
@@ -242,28 +253,79 @@ FAST_AI unsigned fast_half2(const int form, size_t i0, double *restrict x, doubl
 FAST_AI int64_t fast_steps(const int form, double *restrict x, double *restrict y,
                            double *restrict z, double *restrict ux, double *restrict uy,
                            double *restrict uz, double *restrict ig_, double *restrict hg_,
-                           size_t n, int64_t kmax, const struct gcp_fo_tile_args *a,
-                           int32_t *stopped, int check)
+                           size_t n, int64_t kmax, const struct fast_k *k, int32_t *stopped,
+                           int check)
 {
-    const double qdt2m = 0.5 * a->q * a->dt / a->m;
-    const struct fast_k k = {.h = a->h, .qdt2m = qdt2m, .qc = qdt2m * a->p[0],
-                             .rin2 = a->rin2, .rout2 = a->rout2, .zmax = a->zmax,
-                             .B0 = a->p[0], .B1 = a->p[1], .B2 = a->p[2],
-                             .qE0 = qdt2m * a->p[3], .qE1 = qdt2m * a->p[4],
-                             .qE2 = qdt2m * a->p[5]};
     _Alignas(64) double K[4][GCP_FO_TILE];
     for (int64_t s = 0; s < kmax; s++) {
         unsigned bad = 0;
         for (size_t i = 0; i < n; i += W * UNR)
-            fast_half1(form, i, x, y, z, ux, uy, uz, ig_, hg_, K, &k);
+            fast_half1(form, i, x, y, z, ux, uy, uz, ig_, hg_, K, k);
         for (size_t i = 0; i < n; i += W * UNR)
-            bad |= fast_half2(form, i, x, y, z, ux, uy, uz, ig_, hg_, K, &k, check);
+            bad |= fast_half2(form, i, x, y, z, ux, uy, uz, ig_, hg_, K, k, check);
         if (bad) {
             *stopped = 1;
             return s + 1;
         }
     }
     return kmax;
+}
+
+/* The dipole's stop test skipped where it is proved false (the uniform
+ * forms' gcp_fo_nr_cannot_stop does not cover an inner bound; the test is
+ * ~10% of this tier's dipole step: 1.51 -> 1.36 ns a lane-step, 1024
+ * lanes, the tiles timed in one process in turn with kernel (b), Zen 5).  A lane at
+ * distance m = min(r - r_in, r_out - r, z_max - |z|) from the bounds, with
+ * speed U = |u|, stays inside for K steps when every step moves it by at
+ * most d and K d <= m / 2:
+ *  - the rotation keeps |u| to a few roundings a step (s (u' x t) is at
+ *    most ~2 |u| whatever |t|, its errors eps |u| sized), so over K <=
+ *    FREE_CAP = 2^24 steps |u| < 2 U; the two half drifts move x by
+ *    u h / gamma each, 1/gamma <= 1 (IEEE 1/sqrt of a number >= 1, or
+ *    1 + a few eps from the Newton steps): at most 4 h U (1 + 1e-15) a step;
+ *  - the drifts' roundings (1/2 ulp of each coordinate, twice a step, |x|
+ *    < r + m/2 <= 1.5 r) move x by at most 1.5 eps r a step, and the
+ *    proof's own roundings (r, m, the sums of squares: a few eps r) are
+ *    covered by d = 4.2 h U + 8 eps r, whose surplus over the two is
+ *    >= 5 eps r;
+ *  - within m/2 of the start, r2 >= r_in2 and r2 <= r_out2 hold for the
+ *    test's rounded r2 too (m >= 2 d >= 16 eps r: more than its 2 eps
+ *    r2), and |z| <= z_max; r2 + u2 stays finite while r2 + u2 <= 1e300
+ *    at the start (|x| <= 1.5 r, |u| < 2 U).
+ * t stays finite (|t| <= 2 |qdt2m c| / r_in^3 <= GCP_FO_REL_TB_, as the
+ * uniform tiles' bound; fast_tile checks it), so u' x t cannot overflow.
+ * The tile takes K = min over its lanes of floor(m / 2 d) steps untested,
+ * then proves again from where it is; K < FREE_MIN (a lane near a bound,
+ * a non-finite one): KCHK steps with the test.  The steps are the same
+ * tested or not, so the verdicts are the per-step test's. */
+#ifndef FAST_PROOF
+#define FAST_PROOF 1 /* 0: the test every step (to measure what the proof saves) */
+#endif
+#define FREE_CAP 16777216.0
+#define FREE_MIN 4
+#define KCHK 16
+FAST_AI int64_t free_steps(const double *restrict x, const double *restrict y,
+                           const double *restrict z, const double *restrict ux,
+                           const double *restrict uy, const double *restrict uz, size_t n,
+                           const struct fast_k *k)
+{
+    const fw cap = (fw){0} + FREE_CAP, zero = (fw){0};
+    fw kmin = cap;
+    for (size_t i = 0; i < n; i += W) {
+        const fw X = ld(x + i), Y = ld(y + i), Z = ld(z + i);
+        const fw U = ld(ux + i), V = ld(uy + i), Wz = ld(uz + i);
+        const fw r2 = fma_(X, X, fma_(Y, Y, Z * Z)), u2 = fma_(U, U, fma_(V, V, Wz * Wz));
+        const fw r = _mm512_sqrt_pd(r2);
+        const fw m = _mm512_min_pd(_mm512_min_pd(r - k->rin, k->rout - r),
+                                   k->zmax - _mm512_abs_pd(Z));
+        const fw d = fma_(zero + 4.2 * k->h, _mm512_sqrt_pd(u2), (8.0 * DBL_EPSILON) * r);
+        const fw kl = _mm512_min_pd(m / (2.0 * d), cap);
+        /* ordered compares: a NaN anywhere gives no free step */
+        const __mmask8 ok = _mm512_cmp_pd_mask(r2 + u2, zero + 1e300, _CMP_LE_OQ) &
+                            _mm512_cmp_pd_mask(kl, zero + 1.0, _CMP_GE_OQ);
+        kmin = _mm512_min_pd(kmin, _mm512_mask_blend_pd(ok, zero, kl));
+    }
+    return (int64_t)_mm512_reduce_min_pd(kmin);
 }
 
 /* One tile (gcp_fo_tile_fn): lanes [0, nt) in place when nt is a multiple
@@ -275,12 +337,19 @@ FAST_AI int64_t fast_steps(const int form, double *restrict x, double *restrict 
  * takes the same steps as one call.  Uniform fields skip the per-step stop
  * test where gcp_fo_nr_cannot_stop proves it false (fo_fused_priv.h: its
  * bounds hold with |s| and 1/gamma within a few ulp of the IEEE ones --
- * the proof leaves a factor 3e7 of room). */
+ * the proof leaves a factor 3e7 of room), the dipole where free_steps
+ * does, a stretch of steps at a time. */
 FAST_AI int64_t fast_tile(const int form, double *restrict x0, double *restrict y0,
                           double *restrict z0, double *restrict ux0, double *restrict uy0,
                           double *restrict uz0, size_t nt, int64_t kmax,
                           const struct gcp_fo_tile_args *a, int32_t *stopped)
 {
+    const double qdt2m = 0.5 * a->q * a->dt / a->m;
+    struct fast_k k = {.h = a->h, .qdt2m = qdt2m, .qc = qdt2m * a->p[0],
+                       .rin2 = a->rin2, .rout2 = a->rout2, .zmax = a->zmax,
+                       .B0 = a->p[0], .B1 = a->p[1], .B2 = a->p[2],
+                       .qE0 = qdt2m * a->p[3], .qE1 = qdt2m * a->p[4],
+                       .qE2 = qdt2m * a->p[5]};
     _Alignas(64) double ig[GCP_FO_TILE], hg[GCP_FO_TILE], pad[6][GCP_FO_TILE];
     double *v0[6] = {x0, y0, z0, ux0, uy0, uz0}, *v[6];
     const size_t n = (nt + W * UNR - 1) / (W * UNR) * (W * UNR);
@@ -298,16 +367,35 @@ FAST_AI int64_t fast_tile(const int form, double *restrict x0, double *restrict 
         st(ig + i, g), st(hg + i, a->h * g);
     }
     int64_t s = 0;
+    int32_t stp = 0; /* *stopped may be set by an earlier tile */
     if (form != F_DIPOLE_B) {
         const double emag = form == F_UNIFORM_EB ? GCP_FO_ABS3_(a->p + 3) : 0.0;
         if (gcp_fo_nr_cannot_stop(v[0], v[1], v[2], v[3], v[4], v[5], nt, kmax, a, emag,
                                   GCP_FO_ABS3_(a->p), GCP_FO_REL_TB_))
-            s = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kmax, a,
-                           stopped, 0);
+            s = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kmax, &k,
+                           &stp, 0);
+    } else if (FAST_PROOF && kmax >= FREE_MIN && a->rin2 > 0.0) {
+        k.rin = sqrt(a->rin2), k.rout = sqrt(a->rout2);
+        if (2.0 * fabs(k.qc) / (a->rin2 * k.rin) <= GCP_FO_REL_TB_)
+            while (kmax - s >= FREE_MIN) {
+                int64_t kf = free_steps(v[0], v[1], v[2], v[3], v[4], v[5], n, &k);
+                if (kf > kmax - s) kf = kmax - s;
+                if (kf >= FREE_MIN) {
+                    s += fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kf,
+                                    &k, &stp, 0);
+                    continue;
+                }
+                const int64_t kc = kmax - s < KCHK ? kmax - s : KCHK;
+                const int64_t sc = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg,
+                                              n, kc, &k, &stp, 1);
+                s += sc;
+                if (sc < kc || stp) break;
+            }
     }
-    if (s < kmax)
-        s = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kmax - s, a,
-                       stopped, 1) + s;
+    if (s < kmax && !stp)
+        s = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kmax - s, &k,
+                       &stp, 1) + s;
+    if (stp) *stopped = 1;
     if (n != nt)
         for (int k = 0; k < 6; k++) memcpy(v0[k], pad[k], nt * sizeof(double));
     return s;
