@@ -7,8 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "field_priv.h"
-#include "grid_priv.h"
+#include "gcpush/error.h"
+#include "gcpush/field.h"
+#include "gcpush/grid.h"
 
 static const char *const AXI_AX[3] = {"R", "Z", NULL};
 static const char *const CART_AX[3] = {"x", "y", "z"};
