@@ -75,10 +75,10 @@ $(FUZZER): $(FUZZ_SRC) $(wildcard include/gcpush/*.h src/*/*.h fields/*.h)
 
 # The restart path (checkpoint files as input) under the same sanitizers:
 # the run-file layers again (a checkpoint holds its run file) plus io/'s
-# checkpoint and result tables (no MPI or HDF5 call among them).
+# checkpoints and the run layer's result rows (no MPI or HDF5 call among them).
 FUZZER_CKPT := build-fuzz/fuzz_checkpoint
 FUZZ_CKPT_SRC := $(filter-out tests/fuzz/fuzz_runfile.c,$(FUZZ_SRC)) src/io/checkpoint.c \
-            src/io/results.c tests/fuzz/fuzz_checkpoint.c
+            src/run/results.c tests/fuzz/fuzz_checkpoint.c
 $(FUZZER_CKPT): $(FUZZ_CKPT_SRC) $(wildcard include/gcpush/*.h src/*/*.h fields/*.h)
 	@mkdir -p build-fuzz
 	@echo "  CLANG $@"

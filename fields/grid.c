@@ -167,7 +167,7 @@ static int grid_build(struct gcp_field_args *a, struct gcp_field **out, struct g
         return gcp_field_key_error(a, GK_INTERP, err, GCP_ERR_VALUE,
                                    "expected cubic or linear, got '%s'", interp);
     struct gcp_error e2 = {0, ""};
-    const int rc = gcp_field_grid_load(a->text[GK_FILE], ip, use_psi, out, &e2);
+    const int rc = gcp_field_grid_load_with(a->text[GK_FILE], a->grid_read, ip, use_psi, out, &e2);
     if (rc) return gcp_field_key_error(a, GK_FILE, err, rc, "%s", e2.msg);
     return 0;
 }
@@ -260,12 +260,19 @@ struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
     return f;
 }
 
-int gcp_field_grid_load(const char *path, enum gcp_grid_interp interp, int use_psi,
-                        struct gcp_field **out, struct gcp_error *err)
+int gcp_field_grid_load_with(const char *path, gcp_grid_reader read, enum gcp_grid_interp interp,
+                             int use_psi, struct gcp_field **out, struct gcp_error *err)
 {
     struct gcp_grid_data d;
     *out = NULL;
-    int rc = gcp_grid_read(path, &d, err);
+    /* fields/ reads no files (HDF5 is the io layer's): without a reader the
+     * program asked for none, which is its mistake, not the file's */
+    if (!read)
+        return gcp_error_set(err, GCP_ERR_STATE,
+                             "%s: this program reads no grid files (hand it a gcp_grid_reader: "
+                             "gcp_grid_read or gcp_io_readers, gcpush/grid_file.h)",
+                             path);
+    int rc = read(path, &d, err);
     if (rc) return rc;
     if (use_psi < 0)
         use_psi = d.geometry == GCP_GRID_AXISYMMETRIC && d.psi && (!d.B[0] || !d.B[2]);

@@ -1,6 +1,6 @@
 /* fields/grid_priv.h -- the tensor-product spline core (spline.c) shared by
- * the gridded models (grid.c, eqdsk.c), the HDF5 grid file reader
- * (grid_io.c) and the flux chart's table.  Not installed.
+ * the gridded models (grid.c, eqdsk.c) and the flux chart's table.  Not
+ * installed.
  *
  * A `gcp_spl` holds ncomp scalar fields on one uniform grid of nd = 1, 2 or
  * 3 axes.  Axis 0 varies fastest in memory (x or R), then axis 1 (y or Z),

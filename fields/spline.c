@@ -1,6 +1,6 @@
 /* The tensor-product spline core shared by the gridded models (grid.c,
- * eqdsk.c), the HDF5 grid file reader (grid_io.c) and the flux chart's
- * table (src/pushers/canon_flux_num.c): the interpolants, their error
+ * eqdsk.c) and the flux chart's table (src/pushers/canon_flux_num.c,
+ * canon_flux_table.c): the interpolants, their error
  * orders and the storage layout are described in grid_priv.h. */
 #include <math.h>
 #include <stdlib.h>

@@ -27,6 +27,7 @@
 
 #include <mpi.h>
 
+#include "gcpush/grid_file.h"
 #include "gcpush/io.h"
 #include "gcpush/run.h"
 #include "gcpush/sweep.h"
@@ -391,14 +392,14 @@ static int load_scene(const char *arg, int restart, struct gcp_scene **sc, char 
     *files = NULL;
     *nfiles = 0;
     if (!restart) {
-        rc = gcp_scene_load_with(arg, gcp_initfile_read, sc, err);
+        rc = gcp_scene_load_with(arg, &gcp_io_readers, sc, err);
     } else if ((rc = gcp_checkpoint_list(arg, files, nfiles)) == 0 && *nfiles == 0) {
         rc = gcp_error_set(err, GCP_ERR_IO, "%s: no checkpoint to restart from (%s.ckpt.*)", arg,
                            arg);
     } else if (rc == 0) {
         char *text, *path;
         if (!(rc = gcp_checkpoint_read_text((*files)[0], &text, &path, err))) {
-            rc = gcp_scene_parse_with(path, text, gcp_initfile_read, sc, err);
+            rc = gcp_scene_parse_with(path, text, &gcp_io_readers, sc, err);
             if (!rc && !same_path((*sc)->output, arg))
                 rc = gcp_error_set(err, GCP_ERR_VALUE,
                                    "%s: the checkpoint's run file writes '%s', not '%s'",

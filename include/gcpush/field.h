@@ -94,12 +94,21 @@ struct gcp_field_key {
 };
 #define GCP_FIELD_MAX_KEYS 8
 #define GCP_FIELD_TEXT_MAX 1024
+struct gcp_grid_data; /* grid.h */
+/* Reads the grid file `path` into *d (malloc'ed arrays, gcp_grid_data_free):
+ * 0, or a negative code with err naming the file and what is wrong.  Field
+ * code reads no grid files itself (no HDF5 below the io layer): the caller
+ * hands one in, gcp_grid_read (grid_file.h) for gcpush's HDF5 format. */
+typedef int (*gcp_grid_reader)(const char *path, struct gcp_grid_data *d,
+                               struct gcp_error *err);
 /* The values of a model's keys, index for index with its key table. */
 struct gcp_field_args {
     double v[GCP_FIELD_MAX_KEYS][3];              /* QUANTITY (v[k][0]), VECTOR, FLAG (0/1) [SI] */
     char text[GCP_FIELD_MAX_KEYS][GCP_FIELD_TEXT_MAX]; /* STRING values */
     int given[GCP_FIELD_MAX_KEYS];                /* [bool] the run file set key k */
     int bad_key;                                  /* [out] key a build error is about (-1: none) */
+    gcp_grid_reader grid_read;                    /* [in] reads a `grid` model's file (NULL:
+                                                     none; that model then refuses its file) */
 };
 
 struct gcp_field_type {

@@ -1,6 +1,8 @@
-/* gcpush/grid.h -- gridded and real fields: HDF5 grid files, the `grid`,
- * `eqdsk` and `igrf` models, and the sampler that writes any field onto a
- * grid file.  The file format is documented in fields/README.md.
+/* gcpush/grid.h -- gridded and real fields: the `grid`, `eqdsk` and `igrf`
+ * models, and the sampler that puts any field onto a grid.  Grid files
+ * (HDF5, format in fields/README.md) are the io layer's: gcpush/grid_file.h
+ * reads and writes them; the `grid` model gets a file's data through a
+ * gcp_grid_reader (field.h).
  *
  * Memory: a gridded field holds one copy of its spline coefficients per
  * field object (read once per process; threads share the object, which is
@@ -58,24 +60,19 @@ struct gcp_grid_spec {
     double t;           /* [s] time at which a time-dependent source is sampled */
 };
 
-/* Reads a grid file (fields/README.md), checking everything before it
- * returns: rank and shape of every dataset, finite values (the first NaN or
- * Inf is named with its dataset and node index), uniform increasing axes.
- * Errors name the file and the dataset or attribute.  0 or a negative code. */
-int gcp_grid_read(const char *path, struct gcp_grid_data *d, struct gcp_error *err);
-/* Writes d to path (via a temporary name, renamed on success). */
-int gcp_grid_write(const char *path, const struct gcp_grid_data *d, const char *source,
-                   struct gcp_error *err);
+/* Frees the arrays of d (a reader's or gcp_grid_sample's) and sets them NULL. */
 void gcp_grid_data_free(struct gcp_grid_data *d);
 
-/* Samples src on the grid of spec and writes the file.  Nodes inside the
- * source's r_inner (e.g. inside the Earth, where a dipole is singular) take
- * the source's value at the radial projection onto the sphere r = r_inner:
- * a finite, continuous fill the particles never visit (they precipitate at
- * r_inner).  The source's r_inner, r_outer, z_max are stored with the grid.
- * Non-finite source values are an error naming the node. */
+/* Samples src on the grid of spec into *out (free with gcp_grid_data_free;
+ * gcp_grid_sample_write, grid_file.h, writes it to a grid file).  Nodes
+ * inside the source's r_inner (e.g. inside the Earth, where a dipole is
+ * singular) take the source's value at the radial projection onto the
+ * sphere r = r_inner: a finite, continuous fill the particles never visit
+ * (they precipitate at r_inner).  The source's r_inner, r_outer, z_max go
+ * with the grid.  Non-finite source values are an error naming the node.
+ * 0, or a negative code with err set and *out empty. */
 int gcp_grid_sample(const struct gcp_field *src, const struct gcp_grid_spec *spec,
-                    const char *path, struct gcp_error *err);
+                    struct gcp_grid_data *out, struct gcp_error *err);
 
 /* The `grid` model from data in memory (copied: d may be freed after).
  * use_psi: axisymmetric only; B_R, B_Z from the spline of psi (exactly
@@ -83,10 +80,12 @@ int gcp_grid_sample(const struct gcp_field *src, const struct gcp_grid_spec *spe
 struct gcp_field *gcp_field_grid_create(const struct gcp_grid_data *d,
                                         enum gcp_grid_interp interp, int use_psi,
                                         struct gcp_error *err);
-/* The `grid` model from a grid file (use_psi: -1 chooses psi only when the
- * file has psi and lacks BR or BZ). */
-int gcp_field_grid_load(const char *path, enum gcp_grid_interp interp, int use_psi,
-                        struct gcp_field **out, struct gcp_error *err);
+/* The `grid` model from the grid file `path` as `read` gives it (use_psi:
+ * -1 chooses psi only when the file has psi and lacks BR or BZ).  read is
+ * gcp_grid_read (grid_file.h) for HDF5 files, which gcp_field_grid_load
+ * passes; NULL is refused with an error naming the file. */
+int gcp_field_grid_load_with(const char *path, gcp_grid_reader read, enum gcp_grid_interp interp,
+                             int use_psi, struct gcp_field **out, struct gcp_error *err);
 
 /* Poloidal flux per radian psi = R A_phi [Wb/rad] at x for axisymmetric
  * models that know it (grid with psi, eqdsk), so that the canonical

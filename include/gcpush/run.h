@@ -59,6 +59,14 @@ struct gcp_states {
 typedef int (*gcp_states_reader)(const char *path, int gc, struct gcp_states *out, char *why,
                                  size_t whylen);
 
+/* The file readers the caller hands the run layer, which reads no binary
+ * files itself: a NULL member refuses the key that needs it, naming file,
+ * line and key.  gcp_io_readers (grid_file.h) holds gcpush's HDF5 readers. */
+struct gcp_readers {
+    gcp_states_reader states; /* `[particles] file = ...` (gcp_initfile_read, io.h) */
+    gcp_grid_reader grid;     /* `[field] file = ...` of the grid model (gcp_grid_read) */
+};
+
 /* One [particles] or [particles.NAME] section. */
 struct gcp_population {
     char name[32];
@@ -126,13 +134,14 @@ int gcp_scene_load(const char *path, struct gcp_scene **out, struct gcp_error *e
 /* The same from text in memory (path is used in messages only). */
 int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
                     struct gcp_error *err);
-/* The same, with a reader for `[particles] file = ...` (the two above have
- * none, and refuse that key).  The file's path is used as written: relative
- * paths are relative to the working directory, like [field] file and
- * [output] file. */
-int gcp_scene_load_with(const char *path, gcp_states_reader rd, struct gcp_scene **out,
+/* The same, with readers for `[particles] file = ...` and for a grid
+ * field's `[field] file = ...` (the two above have none, and refuse those
+ * keys; so does a NULL rd or member): &gcp_io_readers (grid_file.h) reads
+ * gcpush's HDF5 files.  A file's path is used as written: relative paths are
+ * relative to the working directory, like [output] file. */
+int gcp_scene_load_with(const char *path, const struct gcp_readers *rd, struct gcp_scene **out,
                         struct gcp_error *err);
-int gcp_scene_parse_with(const char *path, const char *text, gcp_states_reader rd,
+int gcp_scene_parse_with(const char *path, const char *text, const struct gcp_readers *rd,
                          struct gcp_scene **out, struct gcp_error *err);
 void gcp_scene_free(struct gcp_scene *s);
 
@@ -149,10 +158,15 @@ int gcp_scene_initial_state(const struct gcp_scene *s, int64_t id, int *pop, dou
 int gcp_scene_initial_gc(const struct gcp_scene *s, int64_t id, double X[3], double *ppar,
                          double *mu);
 
-/* `gcpush grid FILE.run`: samples the file's [scene] field with its [field]
- * keys onto the grid of its [grid] section; the grid file's path is copied
- * to out.  0, or a negative code with err set (no file left on failure). */
-int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err);
+/* `gcpush grid FILE.run` up to the sampling (gcp_grid_command, grid_file.h,
+ * samples and writes): builds the file's [scene] field from its [field]
+ * keys (rd's readers, as gcp_field_from_section_with) into *field (free
+ * with gcp_field_free) and reads its [grid] section into spec and out (the
+ * grid file's path).  0, or a negative code with err set and *field NULL. */
+struct gcp_grid_spec;
+int gcp_grid_command_parse(const char *path, const struct gcp_readers *rd,
+                           struct gcp_field **field, struct gcp_grid_spec *spec, char *out,
+                           size_t outlen, struct gcp_error *err);
 
 /* The [grid] section of a `gcpush grid FILE.run` run file:
  *   geometry = axisymmetric | cartesian
@@ -161,7 +175,6 @@ int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_erro
  *   x_min .. z_max, nx, ny, nz                                     (cartesian)
  *   time     = 0 s                              (optional)
  * Fills spec and path (pathlen bytes).  0 or a negative code (err set). */
-struct gcp_grid_spec;
 int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *spec, char *path,
                                size_t pathlen, struct gcp_error *err);
 
@@ -171,6 +184,11 @@ int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *sp
  * negative code with err filled ("file:line: [field] key: ..."). */
 int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
                            struct gcp_error *err);
+/* The same with rd's grid reader for a grid model's file (NULL rd or
+ * rd->grid: refused, as gcp_field_from_section does). */
+int gcp_field_from_section_with(const char *model, struct gcp_section *sec,
+                                const struct gcp_readers *rd, struct gcp_field **out,
+                                struct gcp_error *err);
 
 /* gcp_period_of (the gyro, bounce and drift periods) is a diagnostic:
  * invariants.h, included here. */

@@ -1,4 +1,5 @@
-/* Private to io/: the column table of struct gcp_results, checkpoints. */
+/* Private to io/: HDF5 attributes of the output files; the column table of
+ * struct gcp_results (run/results_priv.h, the run layer's). */
 #ifndef GCPUSH_IO_PRIV_H
 #define GCPUSH_IO_PRIV_H
 
@@ -6,23 +7,7 @@
 #include <stdint.h>
 
 #include "gcpush/io.h"
-
-#define GCP_RESULTS_MAX_COLUMNS 32
-
-struct gcp_results_column {
-    const char *name;  /* the struct member's name */
-    void **data;       /* address of the member (the array pointer) */
-    size_t elem;       /* bytes per element */
-    int64_t per_row;   /* elements per row */
-};
-
-/* Fills c with the columns r has (trajectory columns only when r->S > 0). */
-size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c);
-
-/* Storage of `bytes` for result columns and the writer's buffers, freed
- * with free(): from 2 MiB on aligned to 2 MiB and offered to the kernel
- * for transparent huge pages (results.c). */
-void *gcp_io_alloc(size_t bytes);
+#include "run/results_priv.h"
 
 /* HDF5 attributes common to the output files (h5attr.c); loc and type are
  * hid_t values (int64_t here, so this header needs no hdf5.h).  A failure

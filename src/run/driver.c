@@ -4,7 +4,7 @@
  * shared among its rows. */
 #include <time.h>
 
-#include "gcpush/io.h"
+#include "gcpush/results.h"
 #include "gcpush/run.h"
 #include "run_priv.h"
 

@@ -4,7 +4,7 @@
 
 #include "gcpush/hybrid.h"
 #include "gcpush/invariants.h"
-#include "gcpush/io.h"
+#include "gcpush/results.h"
 #include "gcpush/run.h"
 #include "run_priv.h"
 

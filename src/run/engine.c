@@ -18,7 +18,7 @@
 #include "gcpush/gc.h"
 #include "gcpush/hybrid.h"
 #include "gcpush/invariants.h"
-#include "gcpush/io.h"
+#include "gcpush/results.h"
 #include "gcpush/run.h"
 #include "run_priv.h"
 

@@ -6,7 +6,9 @@
  * the model does not declare, and hands the plain SI values to the model's
  * `build`, which validates them and constructs the field; a build error
  * about one key (args->bad_key) is given that key's file and line here.
- * So fields/ never calls up into the run-file reader. */
+ * So fields/ never calls up into the run-file reader, nor into the io
+ * layer: a file the model needs (a grid's) comes through the reader the
+ * caller handed in (struct gcp_readers, run.h). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,6 +60,13 @@ static int build_from(const struct gcp_field_type *t, struct gcp_section *sec,
 int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gcp_field **out,
                            struct gcp_error *err)
 {
+    return gcp_field_from_section_with(model, sec, NULL, out, err);
+}
+
+int gcp_field_from_section_with(const char *model, struct gcp_section *sec,
+                                const struct gcp_readers *rd, struct gcp_field **out,
+                                struct gcp_error *err)
+{
     if (!out) return gcp_error_set(err, GCP_ERR_STATE, "gcp_field_from_section: out is NULL");
     *out = NULL;
     if (!sec) return gcp_error_set(err, GCP_ERR_STATE, "gcp_field_from_section: no [field] section");
@@ -75,6 +84,7 @@ int gcp_field_from_section(const char *model, struct gcp_section *sec, struct gc
     struct gcp_field_args *a = calloc(1, sizeof *a); /* 8 kB of text: not on the stack */
     if (!a) return gcp_error_set(err, GCP_ERR_NOMEM, "field %s: out of memory", t->name);
     a->bad_key = -1;
+    a->grid_read = rd ? rd->grid : NULL;
     int rc = build_from(t, sec, a, out, err);
     free(a);
     return rc;

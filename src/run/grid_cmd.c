@@ -1,6 +1,8 @@
 /* `gcpush grid FILE.run`: sample a field model onto a grid file.
  * The run file names the source in [scene] field and [field], the grid in
- * [grid] (gcp_grid_spec_from_section); any other section is an error. */
+ * [grid] (gcp_grid_spec_from_section); any other section is an error.
+ * This reads the run file into a field and a grid; the io layer samples
+ * and writes the file (gcp_grid_command, src/io/grid_file.c). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,13 +77,15 @@ int gcp_grid_spec_from_section(struct gcp_section *sec, struct gcp_grid_spec *sp
     return rc < 0 ? rc : 0;
 }
 
-int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err)
+int gcp_grid_command_parse(const char *path, const struct gcp_readers *rd,
+                           struct gcp_field **field, struct gcp_grid_spec *spec, char *out,
+                           size_t outlen, struct gcp_error *err)
 {
+    *field = NULL;
     char *text;
     int rc = gcp_read_text(path, &text, err);
     if (rc) return rc;
     struct gcp_run_file rf;
-    struct gcp_field *field = NULL;
     rc = gcp_run_file_parse(path, text, &rf, err);
     if (!rc) {
         for (size_t i = 0; i < rf.nsec && !rc; i++) {
@@ -105,12 +109,13 @@ int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_erro
         if (!rc && !gcp_field_type_lookup(model))
             rc = gcp_section_error(sc, "field", err, GCP_ERR_UNKNOWN, "unknown field model '%s'",
                                    model);
-        if (!rc) rc = gcp_field_from_section(model, fs ? fs : &empty, &field, err);
-        struct gcp_grid_spec spec;
-        if (!rc) rc = gcp_grid_spec_from_section(gs, &spec, out, outlen, err);
-        if (!rc) rc = gcp_grid_sample(field, &spec, out, err);
+        if (!rc) rc = gcp_field_from_section_with(model, fs ? fs : &empty, rd, field, err);
+        if (!rc) rc = gcp_grid_spec_from_section(gs, spec, out, outlen, err);
     }
-    gcp_field_free(field);
+    if (rc) {
+        gcp_field_free(*field);
+        *field = NULL;
+    }
     gcp_run_file_free(&rf);
     free(text);
     return rc < 0 ? rc : 0;

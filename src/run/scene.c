@@ -312,8 +312,8 @@ static int check_sections(struct gcp_run_file *rf, struct gcp_error *err)
 /* Reads the states of every population with a `file` key (its count is
  * the file's), then numbers the particles: ids are consecutive across the
  * populations in file order. */
-static int read_state_files(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states_reader rd,
-                            struct gcp_error *err)
+static int read_state_files(struct gcp_scene *sc, struct gcp_run_file *rf,
+                            const struct gcp_readers *rd, struct gcp_error *err)
 {
     const int gc = sc->pusher->kind == GCP_GUIDING_CENTRE;
     size_t k = 0;
@@ -323,7 +323,7 @@ static int read_state_files(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_s
         struct gcp_population *p = &sc->pops[k++];
         if (p->file[0]) {
             char why[1200] = "";
-            if (!rd)
+            if (!rd || !rd->states)
                 return gcp_section_error(s, "file", err, GCP_ERR_VALUE,
                                          "this program reads no files of initial states "
                                          "(gcp_scene_load_with)");
@@ -331,7 +331,7 @@ static int read_state_files(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_s
                 return gcp_section_error(s, "file", err, GCP_ERR_VALUE,
                                          "a [sweep] draws its particles from the keys; "
                                          "initial states from a file are for runs");
-            if (rd(p->file, gc, &p->init, why, sizeof why))
+            if (rd->states(p->file, gc, &p->init, why, sizeof why))
                 return gcp_section_error(s, "file", err, GCP_ERR_IO, "%s", why);
             if (p->init.gc != gc || p->init.n < 1)
                 return gcp_section_error(s, "file", err, GCP_ERR_STATE,
@@ -434,8 +434,8 @@ static int resolve_dt(struct gcp_scene *sc, struct gcp_population *p, struct gcp
     return 0;
 }
 
-static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states_reader rd,
-                       struct gcp_error *err)
+static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf,
+                       const struct gcp_readers *rd, struct gcp_error *err)
 {
     int rc;
     if ((rc = check_sections(rf, err))) return rc;
@@ -460,7 +460,8 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
         return gcp_section_error(s, "field", err, GCP_ERR_UNKNOWN,
                                  "unknown field model '%s' (%s)", sc->field_model,
                                  gcp_field_model_names(names, sizeof names));
-    if ((rc = gcp_field_from_section(sc->field_model, fs ? fs : &empty, &sc->field, err)) < 0)
+    if ((rc = gcp_field_from_section_with(sc->field_model, fs ? fs : &empty, rd, &sc->field,
+                                          err)) < 0)
         return rc;
 
     /* Populations in file order; ids are consecutive across them. */
@@ -635,7 +636,7 @@ static int build_scene(struct gcp_scene *sc, struct gcp_run_file *rf, gcp_states
     return gcp_sweep_spec_parse(sc, rf, err);
 }
 
-int gcp_scene_parse_with(const char *path, const char *text, gcp_states_reader rd,
+int gcp_scene_parse_with(const char *path, const char *text, const struct gcp_readers *rd,
                          struct gcp_scene **out, struct gcp_error *err)
 {
     *out = NULL;
@@ -665,7 +666,7 @@ int gcp_scene_parse(const char *path, const char *text, struct gcp_scene **out,
     return gcp_scene_parse_with(path, text, NULL, out, err);
 }
 
-int gcp_scene_load_with(const char *path, gcp_states_reader rd, struct gcp_scene **out,
+int gcp_scene_load_with(const char *path, const struct gcp_readers *rd, struct gcp_scene **out,
                         struct gcp_error *err)
 {
     char *text;

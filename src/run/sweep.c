@@ -31,7 +31,7 @@
 #include <time.h>
 
 #include "gcpush/gc.h"
-#include "gcpush/io.h"
+#include "gcpush/results.h"
 #include "gcpush/kernels.h"
 #include "run_priv.h"
 #include "sweep_priv.h"

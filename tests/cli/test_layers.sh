@@ -5,8 +5,8 @@
 #   1 fields          fields/, include/gcpush/{field,grid}.h
 #   2 pushers         src/pushers/, include/gcpush/{pusher,gc,hybrid}.h
 #   3 diagnostics     src/diag/, include/gcpush/invariants.h
-#   4 run             src/run/, include/gcpush/{run,section,sweep}.h
-#   5 io / par / CLI  src/io/, src/par/, src/gcpush.c, include/gcpush/{io,gcpush}.h
+#   4 run             src/run/, include/gcpush/{run,section,sweep,results}.h
+#   5 io / par / CLI  src/io/, src/par/, src/gcpush.c, include/gcpush/{io,grid_file,gcpush}.h
 # 1. Include directions: a file includes only headers of its own layer or below;
 #    hdf5.h and mpi.h only in layer 5.
 # 2. The shared library exports only gcp_ symbols (built with -fvisibility=hidden,
@@ -14,8 +14,6 @@
 #    and private gcp_ helpers (declared in *_priv.h) are not in the .so's dynamic table.
 # 3. Every public header a PIC code includes compiles alone with plain cc, without
 #    the MPI or HDF5 include paths (so none pulls in mpi.h or hdf5.h).
-# Known violations still to be removed are listed in KNOWN with the reason; a new
-# one fails the test, and so does a KNOWN entry that no longer occurs (keep it short).
 # Env: BUILD (build dir, default build).
 set -u
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -24,15 +22,6 @@ cd "$root" || exit 1
 fail=0
 say() { echo "test_layers: $*" >&2; fail=1; }
 
-# "file -> included" pairs allowed for now: fields/grid_io.c reading and
-# writing HDF5 grid files (to move to the io layer, issue 12 step 2); the
-# engine (the driver's and the sweep's) filling the I/O layer's gcp_results.
-KNOWN="src/run/driver.c->gcpush/io.h
-src/run/engine.c->gcpush/io.h
-src/run/sweep.c->gcpush/io.h
-src/run/driver_hybrid.c->gcpush/io.h
-fields/grid_io.c->hdf5.h"
-
 layer_of() { # path (repo-relative) -> layer number, or empty when not layered
     case "$1" in
     include/gcpush/api.h | include/gcpush/error.h | include/gcpush/units.h | include/gcpush/particles.h | \
@@ -40,8 +29,9 @@ layer_of() { # path (repo-relative) -> layer number, or empty when not layered
     include/gcpush/field.h | include/gcpush/grid.h | fields/*) echo 1 ;;
     include/gcpush/pusher.h | include/gcpush/gc.h | include/gcpush/hybrid.h | src/pushers/*) echo 2 ;;
     include/gcpush/invariants.h | src/diag/*) echo 3 ;;
-    include/gcpush/run.h | include/gcpush/section.h | include/gcpush/sweep.h | src/run/*) echo 4 ;;
-    include/gcpush/io.h | include/gcpush/gcpush.h | src/io/* | src/par/* | src/gcpush.c) echo 5 ;;
+    include/gcpush/run.h | include/gcpush/section.h | include/gcpush/sweep.h | include/gcpush/results.h | src/run/*) echo 4 ;;
+    include/gcpush/io.h | include/gcpush/grid_file.h | include/gcpush/gcpush.h | src/io/* | src/par/* | \
+        src/gcpush.c) echo 5 ;;
     *) echo "" ;;
     esac
 }
@@ -54,33 +44,22 @@ resolve() { # including file, included name -> repo path of the header (empty if
     echo ""
 }
 
-seen_known=""
 files=$(ls src/*.c src/*/*.c src/*/*.h fields/*.c fields/*.h include/gcpush/*.h 2>/dev/null)
 for f in $files; do
     lf=$(layer_of "$f")
     [ -n "$lf" ] || { say "$f: no layer (add it to layer_of)"; continue; }
     for inc in $(sed -n 's/^[[:space:]]*#[[:space:]]*include[[:space:]]*["<]\([^">]*\)[">].*/\1/p' "$f"); do
-        pair="$f->$inc"
         case "$inc" in
         mpi.h | hdf5.h | hdf5_hl.h)
-            if [ "$lf" -lt 5 ]; then
-                if echo "$KNOWN" | grep -qx -- "$pair"; then seen_known="$seen_known $pair"
-                else say "$f (layer $lf) includes <$inc>: only io/par/CLI may"; fi
-            fi
+            [ "$lf" -lt 5 ] && say "$f (layer $lf) includes <$inc>: only io/par/CLI may"
             continue ;;
         esac
         h=$(resolve "$f" "$inc")
         [ -n "$h" ] || continue # a system header
         lh=$(layer_of "$h")
         [ -n "$lh" ] || { say "$h: no layer (add it to layer_of)"; continue; }
-        if [ "$lh" -gt "$lf" ]; then
-            if echo "$KNOWN" | grep -qx -- "$pair"; then seen_known="$seen_known $pair"
-            else say "$f (layer $lf) includes $inc (layer $lh): layers call only downward"; fi
-        fi
+        [ "$lh" -gt "$lf" ] && say "$f (layer $lf) includes $inc (layer $lh): layers call only downward"
     done
-done
-for k in $KNOWN; do
-    case " $seen_known " in *" $k "*) ;; *) say "KNOWN entry '$k' no longer occurs: remove it" ;; esac
 done
 
 # 2. Exported symbols.
@@ -93,7 +72,7 @@ if [ -f "$so" ] && [ -f "$a" ]; then
     bad=$(nm -g --defined-only "$a" | awk 'NF == 3 {print $3}' | grep -v '^gcp_' | grep -v '^__' | head -5)
     [ -z "$bad" ] || say "$a defines non-gcp_ globals: $bad"
     # private helpers must not be exported: one of each private header
-    for p in gcp_block_classify gcp_field_alloc gcp_spl_build; do
+    for p in gcp_block_classify gcp_field_alloc gcp_spl_build gcp_results_columns; do
         nm -D --defined-only "$so" | awk '{print $NF}' | grep -qx "$p" &&
             say "$so exports the private $p (-fvisibility=hidden lost?)"
     done
@@ -109,7 +88,7 @@ fi
 # 3. Public headers of a PIC code: alone, plain cc, no MPI/HDF5 include path.
 CC_PLAIN=${CC_PLAIN:-cc}
 for h in kernels.h field_kernels.h field.h pusher.h gc.h particles.h grid.h invariants.h error.h units.h \
-    section.h run.h sweep.h gcpush.h; do
+    section.h run.h sweep.h results.h grid_file.h gcpush.h; do
     printf '#include <gcpush/%s>\nint gcp_layers_probe_;\n' "$h" |
         $CC_PLAIN -std=c11 -Wall -Wextra -Werror -fsyntax-only -Iinclude -x c - 2>/tmp/layers.$$ ||
         say "gcpush/$h does not compile alone with plain $CC_PLAIN: $(head -3 /tmp/layers.$$)"

@@ -23,6 +23,7 @@
 #include "gcpush/field_kernels.h"
 #include "gcpush/gc.h"
 #include "gcpush/grid.h"
+#include "gcpush/grid_file.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
@@ -178,6 +179,7 @@ static void keys_grid(const struct gcp_field_type *t, struct gcp_field_args *a)
     }
     set_text(t, a, "file", path);
     set_num(t, a, "use_psi", 1, 0, 0);
+    a->grid_read = gcp_grid_read; /* the io layer's HDF5 reader, as gcpush hands it in */
 }
 static void keys_eqdsk(const struct gcp_field_type *t, struct gcp_field_args *a)
 {

@@ -1,6 +1,7 @@
-/* Unit tests of the `grid` field model (fields/grid.c, fields/grid_io.c):
- * the spline core, grid files (round trip and malformed files), leaving the
- * grid, and gridded against analytic fields in full-orbit pushes.
+/* Unit tests of the `grid` field model (fields/grid.c, fields/grid_sample.c)
+ * and its HDF5 files (src/io/grid_file.c): the spline core, grid files
+ * (round trip, malformed files, no reader), leaving the grid, and gridded
+ * against analytic fields in full-orbit pushes.
  *
  * Tolerances, derived here and referred to below.
  *
@@ -38,6 +39,7 @@
 #include "gcpush/error.h"
 #include "gcpush/field.h"
 #include "gcpush/grid.h"
+#include "gcpush/grid_file.h"
 #include "gcpush/particles.h"
 #include "gcpush/pusher.h"
 #include "gcpush/run.h" /* gcp_grid_spec_from_section (run layer) */
@@ -100,7 +102,7 @@ static struct gcp_field *grid_of(const struct gcp_field *src, const char *name, 
     struct gcp_grid_spec sp = {GCP_GRID_AXISYMMETRIC, {nR, nZ, 1}, {Rlo, Zlo, 0}, {Rhi, Zhi, 0}, 0};
     struct gcp_error err = {0, ""};
     const char *p = tmp_path(name);
-    int rc = gcp_grid_sample(src, &sp, p, &err);
+    int rc = gcp_grid_sample_write(src, &sp, p, &err);
     cr_assert_eq(rc, 0, "sample: %s", err.msg);
     struct gcp_field *g = NULL;
     rc = gcp_field_grid_load(p, ip, 0, &g, &err);
@@ -114,7 +116,7 @@ static struct gcp_field *grid3_of(const struct gcp_field *src, const char *name,
     struct gcp_grid_spec sp = {GCP_GRID_CARTESIAN, {n, n, n}, {lo, lo, lo}, {hi, hi, hi}, 0};
     struct gcp_error err = {0, ""};
     const char *p = tmp_path(name);
-    cr_assert_eq(gcp_grid_sample(src, &sp, p, &err), 0, "sample: %s", err.msg);
+    cr_assert_eq(gcp_grid_sample_write(src, &sp, p, &err), 0, "sample: %s", err.msg);
     struct gcp_field *g = NULL;
     cr_assert_eq(gcp_field_grid_load(p, GCP_INTERP_CUBIC, 0, &g, &err), 0, "load: %s", err.msg);
     return g;
@@ -337,6 +339,70 @@ Test(grid, malformed_files_are_refused_with_a_clear_message)
     fputs("not hdf5\n", fp);
     fclose(fp);
     expect_error(p, "not an HDF5 file", NULL);
+}
+
+/* fields/ reads no files: the `grid` model gets a file's data from the
+ * reader its caller hands in.  Without one (a library user who built the
+ * model without the io layer's gcp_grid_read) the file is refused with a
+ * message naming it, and from a run file its line and key, never a crash;
+ * with one, the data is what gcp_grid_sample put in memory, bit for bit. */
+Test(grid, no_reader_is_refused_naming_the_file_and_key)
+{
+    char p[512];
+    snprintf(p, sizeof p, "%s", write_raw("ok.h5", OK_FILE));
+    struct gcp_field *g = (struct gcp_field *)1;
+    struct gcp_error err = {0, ""};
+    cr_assert_lt(gcp_field_grid_load_with(p, NULL, GCP_INTERP_CUBIC, -1, &g, &err), 0);
+    cr_assert_null(g);
+    cr_assert_not_null(strstr(err.msg, p), "names the file: %s", err.msg);
+    cr_assert_not_null(strstr(err.msg, "reads no grid files"), "%s", err.msg);
+    cr_assert_eq(gcp_field_grid_load_with(p, gcp_grid_read, GCP_INTERP_CUBIC, -1, &g, &err), 0,
+                 "%s", err.msg);
+    gcp_field_free(g);
+
+    /* from a run file: the scene without readers, then with gcpush's */
+    char text[1024], want[600];
+    snprintf(text, sizeof text,
+             "[scene]\nname = t\nfield = grid\nduration = 1 us\n" /* lines 1-4 */
+             "[field]\nfile = %s\n"                                 /* 5-6 */
+             "[particles]\nspecies = proton\ncount = 1\nenergy = 1 keV\n"
+             "position = 1.3 0 -0.8 m\ndirection = 0 1 0\n" /* inside the file's grid */
+             "[integrator]\nmethod = boris\ndt = 10 ns\n[output]\nfile = t.h5\n",
+             p);
+    struct gcp_scene *sc = (struct gcp_scene *)1;
+    struct gcp_error e2 = {0, ""};
+    cr_assert_lt(gcp_scene_parse("t.run", text, &sc, &e2), 0);
+    cr_assert_null(sc);
+    snprintf(want, sizeof want, "t.run:6: [field] file: %s: this program reads no grid files", p);
+    cr_assert_not_null(strstr(e2.msg, want), "'%s' lacks '%s'", e2.msg, want);
+    const struct gcp_readers states_only = {.states = gcp_io_readers.states, .grid = NULL};
+    struct gcp_error e3 = {0, ""};
+    cr_assert_lt(gcp_scene_parse_with("t.run", text, &states_only, &sc, &e3), 0);
+    cr_assert_str_eq(e3.msg, e2.msg);
+    struct gcp_error e4 = {0, ""};
+    cr_assert_eq(gcp_scene_parse_with("t.run", text, &gcp_io_readers, &sc, &e4), 0, "%s", e4.msg);
+    cr_assert_str_eq(sc->field->type->name, "grid");
+    gcp_scene_free(sc);
+
+    /* the sampler in memory and its file: the same numbers */
+    struct gcp_field *dip = gcp_field_dipole_create(FO_B0, 1, FO_RE + 100e3, 15 * FO_RE);
+    struct gcp_grid_spec sp = {GCP_GRID_AXISYMMETRIC, {9, 7, 1}, {0, -3 * FO_RE, 0},
+                               {6 * FO_RE, 3 * FO_RE, 0}, 0};
+    struct gcp_grid_data mem, file;
+    struct gcp_error e5 = {0, ""};
+    cr_assert_eq(gcp_grid_sample(dip, &sp, &mem, &e5), 0, "%s", e5.msg);
+    cr_assert_eq(gcp_grid_sample_write(dip, &sp, tmp_path("mem.h5"), &e5), 0, "%s", e5.msg);
+    cr_assert_eq(gcp_grid_read(tmp_path("mem.h5"), &file, &e5), 0, "%s", e5.msg);
+    cr_assert_eq(file.n[0] * file.n[1], 63);
+    for (int k = 0; k < 3; k++) {
+        cr_assert(memcmp(mem.B[k], file.B[k], 63 * sizeof(double)) == 0, "B%d", k);
+        cr_assert(memcmp(mem.E[k], file.E[k], 63 * sizeof(double)) == 0, "E%d", k);
+    }
+    cr_assert_eq(mem.r_inner, file.r_inner);
+    cr_assert_eq(mem.r_outer, file.r_outer);
+    gcp_grid_data_free(&mem);
+    gcp_grid_data_free(&file);
+    gcp_field_free(dip);
 }
 
 /* ---- derivatives ------------------------------------------------------------ */
@@ -720,7 +786,7 @@ Test(grid, cartesian_grid_converges_at_fourth_order)
                                    0};
         struct gcp_error err = {0, ""};
         const char *p = tmp_path(name);
-        cr_assert_eq(gcp_grid_sample(dip, &sp, p, &err), 0, "sample: %s", err.msg);
+        cr_assert_eq(gcp_grid_sample_write(dip, &sp, p, &err), 0, "sample: %s", err.msg);
         struct gcp_field *g = NULL;
         cr_assert_eq(gcp_field_grid_load(p, GCP_INTERP_CUBIC, 0, &g, &err), 0, "%s", err.msg);
         cr_assert(!g->axisymmetric);

@@ -62,7 +62,8 @@ static int scene(const char *method, const char *file, const char *extra, gcp_st
              "position = 0 0 0 m\ndirection = 1 0 0\n"
              "[integrator]\nmethod = %s\ndt = 0.25 gyro\n[output]\nfile = t.h5\n",
              file, extra, method);
-    return gcp_scene_parse_with("t.run", text, rd, sc, err);
+    const struct gcp_readers readers = {.states = rd, .grid = NULL};
+    return gcp_scene_parse_with("t.run", text, &readers, sc, err);
 }
 
 /* Guiding centres from the reader: count 3 from it, ids 0..2 then the drawn

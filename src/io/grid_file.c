@@ -1,9 +1,13 @@
-/* Grid files (HDF5) for the `grid` model: reader, writer, and the sampler
- * that writes any field onto a grid.  The format is documented in
- * fields/README.md.  This is the only file under fields/ that includes
- * hdf5.h: the models themselves (grid.c) interpolate from memory and never
- * see HDF5.  Serial HDF5 calls with default property lists: they work in a
- * process that never called MPI_Init, also with the Open MPI build of HDF5.
+/* Grid files (HDF5) for the `grid` model: the reader and the writer (the
+ * format is documented in fields/README.md), and what builds on them: the
+ * `grid` model from a file (gcp_field_grid_load), the sampler's file
+ * (gcp_grid_sample_write), `gcpush grid FILE.run` (gcp_grid_command) and
+ * the readers handed to the run layer (gcp_io_readers).  The io layer's:
+ * the models (fields/grid.c) interpolate from memory and never see HDF5;
+ * they get a file's data through a gcp_grid_reader (field.h), this file's
+ * gcp_grid_read for gcpush and for library users who ask for it.  Serial
+ * HDF5 calls with default property lists: they work in a process that never
+ * called MPI_Init, also with the Open MPI build of HDF5.
  */
 #include <hdf5.h>
 #include <math.h>
@@ -12,8 +16,9 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "field_priv.h"
-#include "grid_priv.h"
+#include "gcpush/grid.h"
+#include "gcpush/grid_file.h"
+#include "gcpush/io.h"
 
 #define GRID_FORMAT_VERSION 1
 
@@ -23,18 +28,6 @@ static const char *const CART_B[3] = {"Bx", "By", "Bz"};
 static const char *const CART_E[3] = {"Ex", "Ey", "Ez"};
 static const char *const AXI_AX[3] = {"R", "Z", NULL};
 static const char *const CART_AX[3] = {"x", "y", "z"};
-
-void gcp_grid_data_free(struct gcp_grid_data *d)
-{
-    if (!d) return;
-    for (int k = 0; k < 3; k++) {
-        free(d->B[k]);
-        free(d->E[k]);
-        d->B[k] = d->E[k] = NULL;
-    }
-    free(d->psi);
-    d->psi = NULL;
-}
 
 /* HDF5's automatic error printing off while we work (restored after): our
  * messages say what went wrong. */
@@ -467,91 +460,36 @@ int gcp_grid_write(const char *path, const struct gcp_grid_data *d, const char *
     return 0;
 }
 
-/* ---- the sampler ---------------------------------------------------------- */
+/* ---- what builds on them --------------------------------------------------- */
 
-int gcp_grid_sample(const struct gcp_field *src, const struct gcp_grid_spec *spec,
-                    const char *path, struct gcp_error *err)
+int gcp_field_grid_load(const char *path, enum gcp_grid_interp interp, int use_psi,
+                        struct gcp_field **out, struct gcp_error *err)
 {
-    const int axi = spec->geometry == GCP_GRID_AXISYMMETRIC;
-    if (!axi && spec->geometry != GCP_GRID_CARTESIAN)
-        return gcp_error_set(err, GCP_ERR_VALUE, "grid sample: unknown geometry");
-    const int nd = axi ? 2 : 3;
-    const char *const *ax = axi ? AXI_AX : CART_AX;
+    return gcp_field_grid_load_with(path, gcp_grid_read, interp, use_psi, out, err);
+}
+
+int gcp_grid_sample_write(const struct gcp_field *src, const struct gcp_grid_spec *spec,
+                          const char *path, struct gcp_error *err)
+{
     struct gcp_grid_data d;
-    memset(&d, 0, sizeof d);
-    d.geometry = spec->geometry;
-    size_t total = 1;
-    for (int k = 0; k < nd; k++) {
-        if (spec->n[k] < 5)
-            return gcp_error_set(err, GCP_ERR_VALUE,
-                                 "grid sample: axis %s needs at least 5 nodes, got %zu", ax[k],
-                                 spec->n[k]);
-        if (!(spec->hi[k] > spec->lo[k] && isfinite(spec->lo[k]) && isfinite(spec->hi[k])))
-            return gcp_error_set(err, GCP_ERR_VALUE,
-                                 "grid sample: axis %s: need finite %s_min < %s_max, got %g .. %g",
-                                 ax[k], ax[k], ax[k], spec->lo[k], spec->hi[k]);
-        if (axi && k == 0 && spec->lo[0] < 0.0)
-            return gcp_error_set(err, GCP_ERR_VALUE, "grid sample: R_min must be >= 0, got %g",
-                                 spec->lo[0]);
-        d.n[k] = spec->n[k];
-        d.origin[k] = spec->lo[k];
-        d.spacing[k] = (spec->hi[k] - spec->lo[k]) / (double)(spec->n[k] - 1);
-        total *= spec->n[k];
-    }
-    d.n[2] = axi ? 1 : d.n[2];
-    d.r_inner = src->r_inner;
-    d.r_outer = src->r_outer;
-    d.z_max = src->z_max;
-    int fail = 0;
-    for (int k = 0; k < 3; k++) {
-        fail |= !(d.B[k] = malloc(total * sizeof(double)));
-        if (src->has_E) fail |= !(d.E[k] = malloc(total * sizeof(double)));
-    }
-    if (fail) {
-        gcp_grid_data_free(&d);
-        return gcp_error_set(err, GCP_ERR_NOMEM, "grid sample: out of memory");
-    }
-    const double rin = src->r_inner;
-    for (size_t l = 0; l < total; l++) {
-        size_t i0 = l % d.n[0], r = l / d.n[0];
-        size_t i1 = r % d.n[1], i2 = r / d.n[1];
-        double x[3];
-        if (axi) {
-            x[0] = d.origin[0] + (double)i0 * d.spacing[0];
-            x[1] = 0.0;
-            x[2] = d.origin[1] + (double)i1 * d.spacing[1];
-        } else {
-            x[0] = d.origin[0] + (double)i0 * d.spacing[0];
-            x[1] = d.origin[1] + (double)i1 * d.spacing[1];
-            x[2] = d.origin[2] + (double)i2 * d.spacing[2];
-        }
-        const double r0 = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-        if (rin > 0.0 && r0 < rin) { /* inside the source's inner boundary: project */
-            if (r0 > 0.0)
-                for (int k = 0; k < 3; k++) x[k] *= rin / r0;
-            else
-                x[0] = rin, x[1] = x[2] = 0.0;
-        }
-        struct gcp_field_sample s;
-        memset(&s, 0, sizeof s);
-        s.need = GCP_NEED_B | (src->has_E ? GCP_NEED_E : 0u);
-        (void)gcp_field_eval(src, spec->t, x, &s); /* the source's domain status is not used */
-        for (int k = 0; k < 3; k++) {
-            d.B[k][l] = s.B[k]; /* at phi = 0: (Bx, By, Bz) = (BR, Bphi, BZ) */
-            if (src->has_E) d.E[k][l] = s.E[k];
-            if (!isfinite(s.B[k]) || (src->has_E && !isfinite(s.E[k]))) {
-                gcp_grid_data_free(&d);
-                return gcp_error_set(err, GCP_ERR_VALUE,
-                                     "grid sample: field '%s' is not finite at node (%zu, %zu, "
-                                     "%zu), x = (%g, %g, %g) m",
-                                     src->type->name, i0, i1, i2, x[0], x[1], x[2]);
-            }
-        }
-    }
+    int rc = gcp_grid_sample(src, spec, &d, err);
+    if (rc) return rc;
     char source[128];
     snprintf(source, sizeof source, "gcp_grid_sample of field '%s' at t = %g s", src->type->name,
              spec->t);
-    int rc = gcp_grid_write(path, &d, source, err);
+    rc = gcp_grid_write(path, &d, source, err);
     gcp_grid_data_free(&d);
     return rc;
+}
+
+const struct gcp_readers gcp_io_readers = {.states = gcp_initfile_read, .grid = gcp_grid_read};
+
+int gcp_grid_command(const char *path, char *out, size_t outlen, struct gcp_error *err)
+{
+    struct gcp_field *field = NULL;
+    struct gcp_grid_spec spec;
+    int rc = gcp_grid_command_parse(path, &gcp_io_readers, &field, &spec, out, outlen, err);
+    if (!rc) rc = gcp_grid_sample_write(field, &spec, out, err);
+    gcp_field_free(field);
+    return rc < 0 ? rc : 0;
 }

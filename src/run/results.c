@@ -9,8 +9,8 @@
 #include <sys/mman.h>
 #endif
 
-#include "gcpush/io.h"
-#include "io_priv.h"
+#include "gcpush/results.h"
+#include "results_priv.h"
 
 size_t gcp_results_columns(struct gcp_results *r, struct gcp_results_column *c)
 {
@@ -217,4 +217,44 @@ void gcp_results_free(struct gcp_results *r)
     for (size_t k = 0; k < nc; k++) free(*c[k].data);
     gcp_events_free(&r->ev);
     memset(r, 0, sizeof *r);
+}
+
+static int cmp_i64(const void *a, const void *b)
+{
+    const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+void gcp_results_drop(struct gcp_results *r, const unsigned char *keep)
+{
+    struct gcp_results_column c[GCP_RESULTS_MAX_COLUMNS];
+    const size_t nc = gcp_results_columns(r, c);
+    int64_t w = 0;
+    for (int64_t i = 0; i < r->n; i++) {
+        if (!keep[i]) continue;
+        if (w != i)
+            for (size_t k = 0; k < nc; k++) {
+                const size_t row = (size_t)c[k].per_row * c[k].elem;
+                memcpy((char *)*c[k].data + (size_t)w * row, (char *)*c[k].data + (size_t)i * row, row);
+            }
+        w++;
+    }
+    r->n = w;
+    /* events follow their particles: keep those whose id is still held */
+    if (!r->ev.n && !r->ev.ns) return;
+    int64_t *ids = malloc((size_t)(w ? w : 1) * sizeof *ids);
+    if (!ids) return;
+    memcpy(ids, r->id, (size_t)w * sizeof *ids);
+    qsort(ids, (size_t)w, sizeof *ids, cmp_i64);
+    int64_t we = 0;
+    for (int64_t k = 0; k < r->ev.n; k++)
+        if (w && bsearch(&r->ev.e[k].id, ids, (size_t)w, sizeof *ids, cmp_i64))
+            r->ev.e[we++] = r->ev.e[k];
+    r->ev.n = we;
+    we = 0;
+    for (int64_t k = 0; k < r->ev.ns; k++)
+        if (w && bsearch(&r->ev.s[k].id, ids, (size_t)w, sizeof *ids, cmp_i64))
+            r->ev.s[we++] = r->ev.s[k];
+    r->ev.ns = we;
+    free(ids);
 }
