@@ -201,12 +201,13 @@ GCP_SPL_INLINE void gcp_spl2_eval_k(int K, const double *co, size_t s1, const do
  * by side in the lanes of one vector, each lane in the scalar order). */
 typedef double gcp_spl_v8 __attribute__((vector_size(64), aligned(8)));
 
-/* Row b of the stencil less c0. */
-GCP_SPL_INLINE gcp_spl_v8 gcp_spl_row8(const double *rr, double c0)
+/* Row b of the stencil less c0, into *r (by pointer: a 64-byte vector
+ * passed or returned by value has no stable ABI without AVX-512, and the
+ * DEBUG build, without -march=native, warns (-Wpsabi)). */
+GCP_SPL_INLINE void gcp_spl_row8(const double *rr, double c0, gcp_spl_v8 *r)
 {
-    gcp_spl_v8 r;
-    __builtin_memcpy(&r, rr, sizeof r);
-    return r - c0;
+    __builtin_memcpy(r, rr, sizeof *r);
+    *r -= c0;
 }
 
 GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0,
@@ -217,7 +218,11 @@ GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0
     const double c0 = co[0];
     gcp_spl_v8 u = {0}, u1 = {0}, u11 = {0};
     if (order < 1) {
-        for (int b = 0; b < 8; b++) u += w1[b] * gcp_spl_row8(co + b * s1, c0);
+        for (int b = 0; b < 8; b++) {
+            gcp_spl_v8 r;
+            gcp_spl_row8(co + b * s1, c0, &r);
+            u += w1[b] * r;
+        }
         double f = 0;
         for (int a = 0; a < 8; a++) f += w0[a] * u[a];
         o->f = c0 + f;
@@ -225,7 +230,8 @@ GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0
     }
     if (order < 2) {
         for (int b = 0; b < 8; b++) {
-            const gcp_spl_v8 r = gcp_spl_row8(co + b * s1, c0);
+            gcp_spl_v8 r;
+            gcp_spl_row8(co + b * s1, c0, &r);
             u += w1[b] * r;
             u1 += dw1[b] * r;
         }
@@ -242,7 +248,8 @@ GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0
         return;
     }
     for (int b = 0; b < 8; b++) {
-        const gcp_spl_v8 r = gcp_spl_row8(co + b * s1, c0);
+        gcp_spl_v8 r;
+        gcp_spl_row8(co + b * s1, c0, &r);
         u += w1[b] * r;
         u1 += dw1[b] * r;
         u11 += ddw1[b] * r;
@@ -273,7 +280,8 @@ GCP_SPL_INLINE void gcp_spl2_eval8_3(const double *co, size_t s1, const double *
     const double c0 = co[0];
     gcp_spl_v8 u = {0}, u1 = {0}, u11 = {0}, u111 = {0};
     for (int b = 0; b < 8; b++) {
-        const gcp_spl_v8 r = gcp_spl_row8(co + b * s1, c0);
+        gcp_spl_v8 r;
+        gcp_spl_row8(co + b * s1, c0, &r);
         u += w1[b] * r;
         u1 += dw1[b] * r;
         u11 += ddw1[b] * r;
