@@ -184,25 +184,44 @@ GCP_SPL_INLINE void gcp_spl2_eval_k(int K, const double *co, size_t s1, const do
 }
 
 /* 2D septic: the 8 x 8 stencil contracted along axis 1 first, all eight
- * columns at once (u[a] += w1[b] r[a] over the rows b: each lane sums in a
- * fixed order, so the compiler vectorises across a without reassociating),
- * then along axis 0 (six length-8 sums).  The same sums as the generic
- * loop in another order: equal to round-off, not bit for bit.  Why: the
- * generic order (eight dependent sums per row, row by row) is latency
- * bound, and the septic's 64 coefficients made it 1.6x the quintic's 36
- * (tests/bench/bench_eqdsk_eval.c). */
+ * columns at once (u[a] += w1[b] r[a] over the rows b), then along axis 0
+ * (length-8 sums over a).  Each sum runs in a fixed order (u[a]: rows b =
+ * 0 .. 7; the axis-0 sums: a = 0 .. 7, from 0), so the numbers do not
+ * depend on how it is vectorised; the same sums as the generic loop in
+ * another order: equal to round-off, not bit for bit.  Why: the generic
+ * order (eight dependent sums per row, row by row) is latency bound, and
+ * the septic's 64 coefficients made it 1.6x the quintic's 36
+ * (tests/bench/bench_eqdsk_eval.c).
+ * Written with 8-wide vectors (GCC/Clang vector extensions, as
+ * src/pushers/boris_fast.c): left to the vectoriser, GCC 12 (-O3
+ * -march=native) paired rows two by two in 128-bit registers with scalar
+ * adds, and an evaluation of the flux chart's table (three components,
+ * order 2) took 1.6x what these take (a row is one 64-byte load and one
+ * multiply and add per output; the axis-0 sums of one component run side
+ * by side in the lanes of one vector, each lane in the scalar order). */
+typedef double gcp_spl_v8 __attribute__((vector_size(64), aligned(8)));
+
+/* Row b of the stencil less c0, into *r (by pointer: a 64-byte vector
+ * passed or returned by value has no stable ABI without AVX-512, and the
+ * DEBUG build, without -march=native, warns (-Wpsabi)). */
+GCP_SPL_INLINE void gcp_spl_row8(const double *rr, double c0, gcp_spl_v8 *r)
+{
+    __builtin_memcpy(r, rr, sizeof *r);
+    *r -= c0;
+}
+
 GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0,
                                    const double *dw0, const double *ddw0, const double *w1,
                                    const double *dw1, const double *ddw1, int order,
                                    struct gcp_spl_out *o)
 {
     const double c0 = co[0];
-    double u[8] = {0}, u1[8] = {0}, u11[8] = {0};
+    gcp_spl_v8 u = {0}, u1 = {0}, u11 = {0};
     if (order < 1) {
         for (int b = 0; b < 8; b++) {
-            const double *rr = co + b * s1;
-            const double w = w1[b];
-            for (int a = 0; a < 8; a++) u[a] += w * (rr[a] - c0);
+            gcp_spl_v8 r;
+            gcp_spl_row8(co + b * s1, c0, &r);
+            u += w1[b] * r;
         }
         double f = 0;
         for (int a = 0; a < 8; a++) f += w0[a] * u[a];
@@ -211,50 +230,43 @@ GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0
     }
     if (order < 2) {
         for (int b = 0; b < 8; b++) {
-            const double *rr = co + b * s1;
-            const double w = w1[b], dw = dw1[b];
-            for (int a = 0; a < 8; a++) {
-                const double r = rr[a] - c0;
-                u[a] += w * r;
-                u1[a] += dw * r;
-            }
+            gcp_spl_v8 r;
+            gcp_spl_row8(co + b * s1, c0, &r);
+            u += w1[b] * r;
+            u1 += dw1[b] * r;
         }
-        double f = 0, d0 = 0, d1 = 0;
+        /* lanes (f, d0, d1) */
+        gcp_spl_v8 acc = {0};
         for (int a = 0; a < 8; a++) {
-            f += w0[a] * u[a];
-            d0 += dw0[a] * u[a];
-            d1 += w0[a] * u1[a];
+            const gcp_spl_v8 W = {w0[a], dw0[a], w0[a], 0, 0, 0, 0, 0};
+            const gcp_spl_v8 U = {u[a], u[a], u1[a], 0, 0, 0, 0, 0};
+            acc += W * U;
         }
-        o->f = c0 + f;
-        o->d[0] = d0;
-        o->d[1] = d1;
+        o->f = c0 + acc[0];
+        o->d[0] = acc[1];
+        o->d[1] = acc[2];
         return;
     }
     for (int b = 0; b < 8; b++) {
-        const double *rr = co + b * s1;
-        const double w = w1[b], dw = dw1[b], ddw = ddw1[b];
-        for (int a = 0; a < 8; a++) {
-            const double r = rr[a] - c0;
-            u[a] += w * r;
-            u1[a] += dw * r;
-            u11[a] += ddw * r;
-        }
+        gcp_spl_v8 r;
+        gcp_spl_row8(co + b * s1, c0, &r);
+        u += w1[b] * r;
+        u1 += dw1[b] * r;
+        u11 += ddw1[b] * r;
     }
-    double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
+    /* lanes (f, d0, d1, d00, d01, d11) */
+    gcp_spl_v8 acc = {0};
     for (int a = 0; a < 8; a++) {
-        f += w0[a] * u[a];
-        d0 += dw0[a] * u[a];
-        d1 += w0[a] * u1[a];
-        d00 += ddw0[a] * u[a];
-        d01 += dw0[a] * u1[a];
-        d11 += w0[a] * u11[a];
+        const gcp_spl_v8 W = {w0[a], dw0[a], w0[a], ddw0[a], dw0[a], w0[a], 0, 0};
+        const gcp_spl_v8 U = {u[a], u[a], u1[a], u[a], u1[a], u11[a], 0, 0};
+        acc += W * U;
     }
-    o->f = c0 + f;
-    o->d[0] = d0;
-    o->d[1] = d1;
-    o->dd[0][0] = d00;
-    o->dd[0][1] = o->dd[1][0] = d01;
-    o->dd[1][1] = d11;
+    o->f = c0 + acc[0];
+    o->d[0] = acc[1];
+    o->d[1] = acc[2];
+    o->dd[0][0] = acc[3];
+    o->dd[0][1] = o->dd[1][0] = acc[4];
+    o->dd[1][1] = acc[5];
 }
 
 /* gcp_spl2_eval8 at order 2 (the same sums: the same numbers) and the third
@@ -266,39 +278,32 @@ GCP_SPL_INLINE void gcp_spl2_eval8_3(const double *co, size_t s1, const double *
                                      const double *dddw1, struct gcp_spl_out *o, double ddd[4])
 {
     const double c0 = co[0];
-    double u[8] = {0}, u1[8] = {0}, u11[8] = {0}, u111[8] = {0};
+    gcp_spl_v8 u = {0}, u1 = {0}, u11 = {0}, u111 = {0};
     for (int b = 0; b < 8; b++) {
-        const double *rr = co + b * s1;
-        const double w = w1[b], dw = dw1[b], ddw = ddw1[b], dddw = dddw1[b];
-        for (int a = 0; a < 8; a++) {
-            const double r = rr[a] - c0;
-            u[a] += w * r;
-            u1[a] += dw * r;
-            u11[a] += ddw * r;
-            u111[a] += dddw * r;
-        }
+        gcp_spl_v8 r;
+        gcp_spl_row8(co + b * s1, c0, &r);
+        u += w1[b] * r;
+        u1 += dw1[b] * r;
+        u11 += ddw1[b] * r;
+        u111 += dddw1[b] * r;
     }
-    double f = 0, d0 = 0, d1 = 0, d00 = 0, d01 = 0, d11 = 0;
-    double d000 = 0, d001 = 0, d011 = 0, d111 = 0;
+    /* lanes (f, d0, d1, d00, d01, d11, d000, d001), then (d011, d111) */
+    gcp_spl_v8 acc = {0}, acc3 = {0};
     for (int a = 0; a < 8; a++) {
-        f += w0[a] * u[a];
-        d0 += dw0[a] * u[a];
-        d1 += w0[a] * u1[a];
-        d00 += ddw0[a] * u[a];
-        d01 += dw0[a] * u1[a];
-        d11 += w0[a] * u11[a];
-        d000 += dddw0[a] * u[a];
-        d001 += ddw0[a] * u1[a];
-        d011 += dw0[a] * u11[a];
-        d111 += w0[a] * u111[a];
+        const gcp_spl_v8 W = {w0[a], dw0[a], w0[a], ddw0[a], dw0[a], w0[a], dddw0[a], ddw0[a]};
+        const gcp_spl_v8 U = {u[a], u[a], u1[a], u[a], u1[a], u11[a], u[a], u1[a]};
+        const gcp_spl_v8 W3 = {dw0[a], w0[a], 0, 0, 0, 0, 0, 0};
+        const gcp_spl_v8 U3 = {u11[a], u111[a], 0, 0, 0, 0, 0, 0};
+        acc += W * U;
+        acc3 += W3 * U3;
     }
-    o->f = c0 + f;
-    o->d[0] = d0;
-    o->d[1] = d1;
-    o->dd[0][0] = d00;
-    o->dd[0][1] = o->dd[1][0] = d01;
-    o->dd[1][1] = d11;
-    ddd[0] = d000, ddd[1] = d001, ddd[2] = d011, ddd[3] = d111;
+    o->f = c0 + acc[0];
+    o->d[0] = acc[1];
+    o->d[1] = acc[2];
+    o->dd[0][0] = acc[3];
+    o->dd[0][1] = o->dd[1][0] = acc[4];
+    o->dd[1][1] = acc[5];
+    ddd[0] = acc[6], ddd[1] = acc[7], ddd[2] = acc3[0], ddd[3] = acc3[1];
 }
 
 #endif

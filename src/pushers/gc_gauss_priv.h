@@ -233,6 +233,17 @@ static inline void gcp_gl_end_guess(const struct gl_tableau *T, const double w0[
                                     double pe[2])
 {
     const int s = T->s, m = 2 * s + 1;
+    if (s == 1 && T->c[0] == 0.5) {
+        /* the loop below on the nodes 0, 1/2, 1/2: its divisions are by
+         * 1/2 (doublings) and its factors (1 - x) are 1/2 and 1, so these
+         * are its numbers, without the loop's branches and division
+         * chain (the loop: 1.2% of a gc-gl2 step in DIII-D, perf) */
+        for (int r = 0; r < 2; r++) {
+            const double d1 = (w[0][r] - w0[r]) * 2.0, d2 = (v[0][r] - d1) * 2.0;
+            pe[r] = w0[r] + (d1 + 0.5 * d2);
+        }
+        return;
+    }
     double x[2 * GL_SMAX + 1];
     x[0] = 0.0;
     for (int i = 0; i < s; i++) x[1 + 2 * i] = x[2 + 2 * i] = T->c[i];
