@@ -43,7 +43,7 @@ static inline void boris_eb_kick2_(double *ux, double *uy, double *uz, const dou
 #define BORIS_EB_KICK2_                                                                         \
     boris_eb_kick2_(&U, &V, &W, a->p + 3, 0.5 * q * dt / m, K[0][i], K[1][i], K[2][i], K[3][i])
 GCP_FO_FUSED_DEFINE_SPLIT_(boris, gcp_push_boris, gcp_push_boris_B_ig, 1, BORIS_STASH_,
-                           BORIS_KICK2_, 1, BORIS_EB_STASH_, BORIS_EB_KICK2_, 1)
+                           BORIS_KICK2_, 1, BORIS_EB_STASH_, BORIS_EB_KICK2_, 1, 2)
 
 const struct gcp_pusher_type gcp_pusher_boris = {
     .name = "boris",

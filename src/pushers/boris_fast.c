@@ -13,7 +13,7 @@
  *   - fused multiply-adds wherever a product meets a sum;
  *   - the explicit AVX-512 vectors below, two lane groups interleaved;
  *   - in the dipole, the stop test only where a lane may reach a bound
- *     (free_steps proves the others cannot: the verdicts are unchanged).
+ *     (gcp_fo_free_steps proves the others cannot: the verdicts are unchanged).
  * Each reciprocal can instead come from vrsqrt14pd / vrcp14pd (relative
  * error < 2^-14) and two Newton steps on the FMA pipes,
  * e/2 = 1/2 - (x/2) y y,  y <- y + y (e/2)  (one fma for the residual;
@@ -149,7 +149,6 @@ enum { F_DIPOLE_B, F_UNIFORM_B, F_UNIFORM_EB };
 /* What a group's step needs, fixed for the call. */
 struct fast_k {
     double h, qdt2m, qc, rin2, rout2, zmax, B0, B1, B2, qE0, qE1, qE2;
-    double rin, rout; /* sqrt(rin2), sqrt(rout2): the dipole's proof (free_steps) */
 };
 
 /* One step of the W UNR lanes at i0 in two halves (the header's
@@ -271,63 +270,15 @@ FAST_AI int64_t fast_steps(const int form, double *restrict x, double *restrict 
     return kmax;
 }
 
-/* The dipole's stop test skipped where it is proved false (the uniform
- * forms' gcp_fo_nr_cannot_stop does not cover an inner bound; the test is
- * ~10% of this tier's dipole step: 1.51 -> 1.36 ns a lane-step, 1024
- * lanes, the tiles timed in one process in turn with kernel (b), Zen 5).  A lane at
- * distance m = min(r - r_in, r_out - r, z_max - |z|) from the bounds, with
- * speed U = |u|, stays inside for K steps when every step moves it by at
- * most d and K d <= m / 2:
- *  - the rotation keeps |u| to a few roundings a step (s (u' x t) is at
- *    most ~2 |u| whatever |t|, its errors eps |u| sized), so over K <=
- *    FREE_CAP = 2^24 steps |u| < 2 U; the two half drifts move x by
- *    u h / gamma each, 1/gamma <= 1 (IEEE 1/sqrt of a number >= 1, or
- *    1 + a few eps from the Newton steps): at most 4 h U (1 + 1e-15) a step;
- *  - the drifts' roundings (1/2 ulp of each coordinate, twice a step, |x|
- *    < r + m/2 <= 1.5 r) move x by at most 1.5 eps r a step, and the
- *    proof's own roundings (r, m, the sums of squares: a few eps r) are
- *    covered by d = 4.2 h U + 8 eps r, whose surplus over the two is
- *    >= 5 eps r;
- *  - within m/2 of the start, r2 >= r_in2 and r2 <= r_out2 hold for the
- *    test's rounded r2 too (m >= 2 d >= 16 eps r: more than its 2 eps
- *    r2), and |z| <= z_max; r2 + u2 stays finite while r2 + u2 <= 1e300
- *    at the start (|x| <= 1.5 r, |u| < 2 U).
- * t stays finite (|t| <= 2 |qdt2m c| / r_in^3 <= GCP_FO_REL_TB_, as the
- * uniform tiles' bound; fast_tile checks it), so u' x t cannot overflow.
- * The tile takes K = min over its lanes of floor(m / 2 d) steps untested,
- * then proves again from where it is; K < FREE_MIN (a lane near a bound,
- * a non-finite one): KCHK steps with the test.  The steps are the same
- * tested or not, so the verdicts are the per-step test's. */
+/* The dipole's stop test skipped where gcp_fo_free_steps proves it false
+ * (fo_fused_priv.h, the proof shared with the IEEE dipole tile; the test
+ * is ~10% of this tier's dipole step: 1.51 -> 1.36 ns a lane-step, 1024
+ * lanes, the tiles timed in one process in turn with kernel (b), Zen 5):
+ * its bound on a step's drift, 4.2 h |u|, covers this tier's 1/gamma
+ * (1/sqrt, IEEE or Newton: <= 1 + a few eps) and its fused operations. */
 #ifndef FAST_PROOF
 #define FAST_PROOF 1 /* 0: the test every step (to measure what the proof saves) */
 #endif
-#define FREE_CAP 16777216.0
-#define FREE_MIN 4
-#define KCHK 16
-FAST_AI int64_t free_steps(const double *restrict x, const double *restrict y,
-                           const double *restrict z, const double *restrict ux,
-                           const double *restrict uy, const double *restrict uz, size_t n,
-                           const struct fast_k *k)
-{
-    const fw cap = (fw){0} + FREE_CAP, zero = (fw){0};
-    fw kmin = cap;
-    for (size_t i = 0; i < n; i += W) {
-        const fw X = ld(x + i), Y = ld(y + i), Z = ld(z + i);
-        const fw U = ld(ux + i), V = ld(uy + i), Wz = ld(uz + i);
-        const fw r2 = fma_(X, X, fma_(Y, Y, Z * Z)), u2 = fma_(U, U, fma_(V, V, Wz * Wz));
-        const fw r = _mm512_sqrt_pd(r2);
-        const fw m = _mm512_min_pd(_mm512_min_pd(r - k->rin, k->rout - r),
-                                   k->zmax - _mm512_abs_pd(Z));
-        const fw d = fma_(zero + 4.2 * k->h, _mm512_sqrt_pd(u2), (8.0 * DBL_EPSILON) * r);
-        const fw kl = _mm512_min_pd(m / (2.0 * d), cap);
-        /* ordered compares: a NaN anywhere gives no free step */
-        const __mmask8 ok = _mm512_cmp_pd_mask(r2 + u2, zero + 1e300, _CMP_LE_OQ) &
-                            _mm512_cmp_pd_mask(kl, zero + 1.0, _CMP_GE_OQ);
-        kmin = _mm512_min_pd(kmin, _mm512_mask_blend_pd(ok, zero, kl));
-    }
-    return (int64_t)_mm512_reduce_min_pd(kmin);
-}
-
 /* One tile (gcp_fo_tile_fn): lanes [0, nt) in place when nt is a multiple
  * of W, else through a padded copy whose extra lanes repeat lane 0 (so
  * they stop exactly when lane 0 does: the tile's verdict is unchanged).
@@ -337,7 +288,7 @@ FAST_AI int64_t free_steps(const double *restrict x, const double *restrict y,
  * takes the same steps as one call.  Uniform fields skip the per-step stop
  * test where gcp_fo_nr_cannot_stop proves it false (fo_fused_priv.h: its
  * bounds hold with |s| and 1/gamma within a few ulp of the IEEE ones --
- * the proof leaves a factor 3e7 of room), the dipole where free_steps
+ * the proof leaves a factor 3e7 of room), the dipole where gcp_fo_free_steps
  * does, a stretch of steps at a time. */
 FAST_AI int64_t fast_tile(const int form, double *restrict x0, double *restrict y0,
                           double *restrict z0, double *restrict ux0, double *restrict uy0,
@@ -374,23 +325,23 @@ FAST_AI int64_t fast_tile(const int form, double *restrict x0, double *restrict 
                                   GCP_FO_ABS3_(a->p), GCP_FO_REL_TB_))
             s = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kmax, &k,
                            &stp, 0);
-    } else if (FAST_PROOF && kmax >= FREE_MIN && a->rin2 > 0.0) {
-        k.rin = sqrt(a->rin2), k.rout = sqrt(a->rout2);
-        if (2.0 * fabs(k.qc) / (a->rin2 * k.rin) <= GCP_FO_REL_TB_)
-            while (kmax - s >= FREE_MIN) {
-                int64_t kf = free_steps(v[0], v[1], v[2], v[3], v[4], v[5], n, &k);
-                if (kf > kmax - s) kf = kmax - s;
-                if (kf >= FREE_MIN) {
-                    s += fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kf,
-                                    &k, &stp, 0);
-                    continue;
-                }
-                const int64_t kc = kmax - s < KCHK ? kmax - s : KCHK;
-                const int64_t sc = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg,
-                                              n, kc, &k, &stp, 1);
-                s += sc;
-                if (sc < kc || stp) break;
+    } else if (FAST_PROOF && gcp_fo_free_ok(a, kmax)) {
+        const double rin = sqrt(a->rin2), rout = sqrt(a->rout2);
+        while (kmax - s >= GCP_FO_FREE_MIN) {
+            int64_t kf = gcp_fo_free_steps(v[0], v[1], v[2], v[3], v[4], v[5], n, a->h, rin,
+                                           rout, a->zmax);
+            if (kf > kmax - s) kf = kmax - s;
+            if (kf >= GCP_FO_FREE_MIN) {
+                s += fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kf, &k,
+                                &stp, 0);
+                continue;
             }
+            const int64_t kc = kmax - s < GCP_FO_FREE_KCHK ? kmax - s : GCP_FO_FREE_KCHK;
+            const int64_t sc = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n,
+                                          kc, &k, &stp, 1);
+            s += sc;
+            if (sc < kc || stp) break;
+        }
     }
     if (s < kmax && !stp)
         s = fast_steps(form, v[0], v[1], v[2], v[3], v[4], v[5], ig, hg, n, kmax - s, &k,

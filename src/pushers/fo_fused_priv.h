@@ -39,6 +39,7 @@
 #ifndef GCPUSH_FO_FUSED_PRIV_H
 #define GCPUSH_FO_FUSED_PRIV_H
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -182,7 +183,10 @@ struct gcp_fo_fused {
  * finite.  One thing differs: its rotation forms s (u' x t), s = 2 / (1 +
  * t^2), where the Newtonian kick forms u' x s with |s| <= 1, so its
  * intermediate u' x t reaches |u|(1 + |t|)|t|; GCP_FO_REL_TB_ = 1e70 bounds
- * |t| so that this stays below 1e291 for |u| <= U_B = 1e150. */
+ * |t| so that this stays below 1e291 for |u| <= U_B = 1e150.
+ * FREE_ = 2 (boris's dipole tile): the test skipped a stretch of steps at a
+ * time where gcp_fo_free_steps proves it false (below), the tile's entry
+ * drift factors hg bounding the first step's first drift. */
 #define GCP_FO_REL_TB_ 1e70
 #define GCP_FO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, SPLIT_, FREE_, EMAG_, BMAG_)  \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
@@ -205,16 +209,35 @@ struct gcp_fo_fused {
                 hg[i] = h / G0;                                                                 \
             }                                                                                   \
         }                                                                                       \
-        int64_t s = 0;                                                                          \
-        if (FREE_ && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_,      \
-                                           GCP_FO_REL_TB_))                                     \
-            for (; s < kmax; s++) {                                                             \
-                int32_t any = 0;                                                                \
-                GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, 0)                      \
-                (void)any;                                                                      \
-            }                                                                                   \
+        /* untested steps up to fend (FREE_ = 1: the call's, FREE_ = 2: a                       \
+         * stretch's, proved again at next) */                                                  \
+        int64_t s = 0, fend = 0, next = kmax;                                                   \
+        double hm = fabs(h);                                                                    \
+        if (FREE_ == 1 && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_, \
+                                                GCP_FO_REL_TB_))                                \
+            fend = kmax;                                                                        \
+        if (FREE_ == 2 && gcp_fo_free_ok(a, kmax)) {                                            \
+            next = 0;                                                                           \
+            for (size_t i = 0; i < nt; i++) hm = fabs(hg[i]) > hm ? fabs(hg[i]) : hm;           \
+        }                                                                                       \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
+            if (s == next) {                                                                    \
+                int64_t kf = 0;                                                                 \
+                if (kmax - s >= GCP_FO_FREE_MIN)                                                \
+                    kf = gcp_fo_free_steps(x, y, z, ux, uy, uz, nt, hm, sqrt(rin2),             \
+                                           sqrt(rout2), zmax);                                  \
+                if (kf > kmax - s) kf = kmax - s;                                               \
+                if (kf >= GCP_FO_FREE_MIN)                                                      \
+                    fend = next = s + kf;                                                       \
+                else                                                                            \
+                    next = s + GCP_FO_FREE_KCHK;                                                \
+            }                                                                                   \
+            if (s < fend) {                                                                     \
+                GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, 0)                      \
+                (void)any;                                                                      \
+                continue;                                                                       \
+            }                                                                                   \
             GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, 1)                          \
             if (any) {                                                                          \
                 *stopped = 1;                                                                   \
@@ -531,13 +554,16 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
  * tile with STASH_EB_ and KICK2_EB_, and skip the stop test where it is
  * proved false (FREE_ above: Boris's bounds; USPLIT_ = 0: one loop a step
  * with the test, the plain kicks; STASH_EB_ and KICK2_EB_ unused).  FT = 1:
- * the B tiles' field vector is Boris's t, not B (the gyro tile's sums). */
+ * the B tiles' field vector is Boris's t, not B (the gyro tile's sums).
+ * DFREE_ = 2: the dipole tile skips the stop test where gcp_fo_free_steps
+ * proves it false (its bound on a step's drift needs a rotation that keeps
+ * |u|: Boris's), 0: the test every step. */
 #define GCP_FO_IG_0_
 #define GCP_FO_IG_1_ , IG0
 #define GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, STASH_B_, KICK2_B_, USPLIT_,      \
-                                   STASH_EB_, KICK2_EB_, FT)                                    \
+                                   STASH_EB_, KICK2_EB_, FT, DFREE_)                            \
     GCP_FO_TILE_DEFINE_(NAME##_tile_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, 1, \
-                        0, 0.0, 0.0)                                                            \
+                        DFREE_, 0.0, 0.0)                                                       \
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY,    \
                         USPLIT_, USPLIT_, 0.0, GCP_FO_ABS3_(a->p))                              \
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, STASH_EB_, KICK2_EB_, 0,     \
@@ -556,7 +582,7 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
                                KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_),   \
                                0, GCP_FO_STASH_B_,                                              \
                                KICK(&U, &V, &W, a->p[3], a->p[4], a->p[5], bx, by, bz, q, m,    \
-                                    dt), 0)
+                                    dt), 0, 0)
 
 /* ---- Newtonian pushers (u = v: boris-nr) --------------------------------
  *
@@ -607,6 +633,70 @@ static inline int gcp_fo_nr_cannot_stop(const double *restrict x, const double *
         bad |= !((um <= GCP_FO_NR_UB_) & (xm <= GCP_FO_NR_UB_));
     }
     return !bad;
+}
+
+/* The dipole's stop test skipped where it is proved false, a stretch of
+ * steps at a time (relativistic Boris: the IEEE tile, FREE_ = 2 above,
+ * and the fast tier, boris_fast.c; gcp_fo_nr_cannot_stop does not cover
+ * an inner bound).  A lane at distance m = min(r - r_in, r_out - r,
+ * z_max - |z|) from the bounds, with speed U = |u|, stays inside for K
+ * steps when every step moves it by at most d and K d <= m / 2:
+ *  - the rotation keeps |u| to a few roundings a step (s (u' x t) is at
+ *    most ~2 |u| whatever |t|, its errors eps |u| sized), so over K <=
+ *    GCP_FO_FREE_CAP = 2^24 steps |u| < 2 U; the two half drifts move x
+ *    by u hg each, hg = h / gamma <= h (IEEE h / sqrt of a number >= 1,
+ *    or 1 + a few eps from the fast tier's Newton steps; the caller passes
+ *    as h a bound on the drift factors it enters with): at most
+ *    4 h U (1 + 1e-15) a step;
+ *  - the drifts' roundings (1/2 ulp of each coordinate, twice a step, |x|
+ *    < r + m/2 <= 1.5 r) move x by at most 1.5 eps r a step, and the
+ *    proof's own roundings (r, m, the sums of squares, a fused or unfused
+ *    multiply-add: a few eps r) are covered by d = 4.2 h U + 8 eps r,
+ *    whose surplus over the two is >= 5 eps r;
+ *  - within m/2 of the start, r2 >= r_in2 and r2 <= r_out2 hold for the
+ *    test's rounded r2 too (m >= 2 d >= 16 eps r: more than its 2 eps
+ *    r2), and |z| <= z_max; r2 + u2 stays finite while r2 + u2 <= 1e300
+ *    at the start (|x| <= 1.5 r, |u| < 2 U).
+ * t stays finite (|t| <= 2 |qdt2m c| / r_in^3 <= GCP_FO_REL_TB_, as the
+ * uniform tiles' bound: gcp_fo_free_ok), so u' x t cannot overflow.  The
+ * tile takes K = gcp_fo_free_steps = min over its lanes of floor(m / 2 d)
+ * steps untested, then proves again from where it is; K < GCP_FO_FREE_MIN
+ * (a lane near a bound, a non-finite one): GCP_FO_FREE_KCHK steps with
+ * the test.  The steps are the same tested or not, so the verdicts (and
+ * every bit) are the per-step test's.  Plain C, so that the same code
+ * serves the IEEE tiles and, inlined, the AVX-512 one (whose target adds
+ * to this one's); its loop vectorises (an integer min reduction). */
+#define GCP_FO_FREE_CAP 16777216
+#define GCP_FO_FREE_MIN 4
+#define GCP_FO_FREE_KCHK 16
+/* Whether the proof applies to the call at all: a dipole with an inner
+ * bound (t bounded) and enough steps asked. */
+static inline int gcp_fo_free_ok(const struct gcp_fo_tile_args *a, int64_t kmax)
+{
+    if (kmax < GCP_FO_FREE_MIN || !(a->rin2 > 0.0)) return 0;
+    const double qc = 0.5 * a->q * a->dt / a->m * a->p[0], rin = sqrt(a->rin2);
+    return 2.0 * fabs(qc) / (a->rin2 * rin) <= GCP_FO_REL_TB_;
+}
+static inline int64_t gcp_fo_free_steps(const double *restrict x, const double *restrict y,
+                                        const double *restrict z, const double *restrict ux,
+                                        const double *restrict uy, const double *restrict uz,
+                                        size_t n, double h, double rin, double rout,
+                                        double zmax)
+{
+    int32_t kmin = GCP_FO_FREE_CAP;
+    const double h42 = 4.2 * h, cap = GCP_FO_FREE_CAP;
+    for (size_t i = 0; i < n; i++) {
+        const double r2 = x[i] * x[i] + y[i] * y[i] + z[i] * z[i];
+        const double u2 = ux[i] * ux[i] + uy[i] * uy[i] + uz[i] * uz[i];
+        const double r = sqrt(r2), m1 = r - rin, m2 = rout - r, m3 = zmax - fabs(z[i]);
+        const double m = m1 < m2 ? (m1 < m3 ? m1 : m3) : (m2 < m3 ? m2 : m3);
+        const double kl = m / (2.0 * (h42 * sqrt(u2) + (8.0 * DBL_EPSILON) * r));
+        /* ordered compares: a NaN anywhere (or h < 0) gives no free step */
+        const int ok = (r2 + u2 <= 1e300) & (kl >= 1.0);
+        const int32_t ki = (int32_t)(ok ? (kl < cap ? kl : cap) : 0.0);
+        kmin = ki < kmin ? ki : kmin;
+    }
+    return kmin;
 }
 
 /* One Newtonian tile function (FORM_, KICK_ as above); EMAG_ and BMAG_ the

@@ -9,7 +9,11 @@
  * numbers).  Lanes leave the domain at different steps (so tiles stop
  * early and are run again to the block's step), one starts non-finite,
  * and a sampler every 7 steps records the live lanes (and once without a
- * sampler: the whole push in one call of the fused step).  The fused step does
+ * sampler: the whole push in one call of the fused step).  A slower dipole
+ * scene (1.5e6 m/s within 1 R_E of 4 R_E: the tiles' lanes start >= 0.8
+ * R_E from the bounds, ~16 steps' 2 d of gcp_fo_free_steps) runs boris's
+ * dipole tile in stretches without the stop test, lanes still leaving at
+ * distinct steps.  The fused step does
  * the same operations in the same order (the build keeps
  * -ffp-contract=off), so states, statuses, stop times, step counts and
  * every sample must be equal to the bit; any reordering of a sum shows up
@@ -36,6 +40,7 @@
 #define N 300
 #define NSTEPS 400
 #define EVERY 7
+#define VSLOW 1.5e6
 
 static int wrapped_eval(double t, const double x[3], struct gcp_field_sample *out, void *ctx)
 {
@@ -179,6 +184,7 @@ Test(fo_fused, equals_block_step_every_pusher_every_form)
     uni->r_outer = uniE->r_outer = 2.0;
     uni->z_max = uniE->z_max = 1.0;
     const double xd[3] = {5.5 * RE, 0.0, 0.0}, xu[3] = {0.0, 0.0, 0.0};
+    const double xs[3] = {4.0 * RE, 0.0, 0.0};
     const double dtu = 0.1 * GCP_M_PROTON / GCP_E_CHARGE;
     int n = 0;
     for (const struct gcp_pusher_type *const *pp = gcp_pusher_types(); *pp; pp++) {
@@ -188,6 +194,7 @@ Test(fo_fused, equals_block_step_every_pusher_every_form)
          * (every = -1: one call a step, the caller's clock) */
         for (int64_t every = -1; every <= EVERY; every += every < 0 ? 1 : EVERY) {
             compare("dipole", dip, *pp, xd, RE, 4e7, 0.05, every);
+            compare("dipole, slow", dip, *pp, xs, RE, VSLOW, 0.05, every);
             compare("uniform B", uni, *pp, xu, 0.9, 1e6, dtu, every);
             compare("uniform B and E", uniE, *pp, xu, 0.9, 1e6, dtu, every);
         }
