@@ -201,6 +201,18 @@ GCP_SPL_INLINE void gcp_spl2_eval_k(int K, const double *co, size_t s1, const do
  * by side in the lanes of one vector, each lane in the scalar order). */
 typedef double gcp_spl_v8 __attribute__((vector_size(64), aligned(8)));
 
+/* The order-2 sums' lanes (f - c0, d0, d1, d00, d01, d11) into o (by
+ * pointer: a 64-byte vector argument changes the ABI without AVX-512). */
+GCP_SPL_INLINE void gcp_spl_out8(struct gcp_spl_out *o, double c0, const gcp_spl_v8 *acc)
+{
+    o->f = c0 + (*acc)[0];
+    o->d[0] = (*acc)[1];
+    o->d[1] = (*acc)[2];
+    o->dd[0][0] = (*acc)[3];
+    o->dd[0][1] = o->dd[1][0] = (*acc)[4];
+    o->dd[1][1] = (*acc)[5];
+}
+
 /* Row b of the stencil less c0, into *r (by pointer: a 64-byte vector
  * passed or returned by value has no stable ABI without AVX-512, and the
  * DEBUG build, without -march=native, warns (-Wpsabi)). */
@@ -261,12 +273,7 @@ GCP_SPL_INLINE void gcp_spl2_eval8(const double *co, size_t s1, const double *w0
         const gcp_spl_v8 U = {u[a], u[a], u1[a], u[a], u1[a], u11[a], 0, 0};
         acc += W * U;
     }
-    o->f = c0 + acc[0];
-    o->d[0] = acc[1];
-    o->d[1] = acc[2];
-    o->dd[0][0] = acc[3];
-    o->dd[0][1] = o->dd[1][0] = acc[4];
-    o->dd[1][1] = acc[5];
+    gcp_spl_out8(o, c0, &acc);
 }
 
 /* gcp_spl2_eval8 at order 2 (the same sums: the same numbers) and the third
@@ -297,12 +304,7 @@ GCP_SPL_INLINE void gcp_spl2_eval8_3(const double *co, size_t s1, const double *
         acc += W * U;
         acc3 += W3 * U3;
     }
-    o->f = c0 + acc[0];
-    o->d[0] = acc[1];
-    o->d[1] = acc[2];
-    o->dd[0][0] = acc[3];
-    o->dd[0][1] = o->dd[1][0] = acc[4];
-    o->dd[1][1] = acc[5];
+    gcp_spl_out8(o, c0, &acc);
     ddd[0] = acc[6], ddd[1] = acc[7], ddd[2] = acc3[0], ddd[3] = acc3[1];
 }
 

@@ -114,8 +114,12 @@ struct gcp_fo_fused {
     double bx, by, bz;                                                                          \
     FORM_(X_, Y_, Z_, bx, by, bz);                                                              \
     (void)bx, (void)by, (void)bz;
-#define GCP_FO_LANE2_(KICK_, CARRY_, XS, YS, ZS, TEST_)                                         \
-    double U = ux[i], V = uy[i], W = uz[i];                                                     \
+/* The kick from u- = (U0_, V0_, W0_) at the point (XS, YS, ZS), gamma,
+ * the second half drift into x and hg, and the stop test's r2, u2: the
+ * lane's step after its field (GCP_FO_LANE2_, and the observer's gyro
+ * tile, which keeps u- and u+ in buffers of its own). */
+#define GCP_FO_KICK_DRIFT_(KICK_, CARRY_, U0_, V0_, W0_, XS, YS, ZS)                            \
+    double U = U0_, V = V0_, W = W0_;                                                           \
     const double X = XS, Y = YS, Z = ZS;                                                        \
     KICK_;                                                                                      \
     const double G1 = gcp_gamma_of_u(U, V, W);                                                  \
@@ -123,10 +127,12 @@ struct gcp_fo_fused {
     const double g1 = h / G1;                                                                   \
     const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                             \
     x[i] = X1, y[i] = Y1, z[i] = Z1;                                                            \
-    ux[i] = U, uy[i] = V, uz[i] = W;                                                            \
     hg[i] = g1;                                                                                 \
     const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                              \
-    const double u2 = U * U + V * V + W * W;                                                    \
+    const double u2 = U * U + V * V + W * W;
+#define GCP_FO_LANE2_(KICK_, CARRY_, XS, YS, ZS, TEST_)                                         \
+    GCP_FO_KICK_DRIFT_(KICK_, CARRY_, ux[i], uy[i], uz[i], XS, YS, ZS)                          \
+    ux[i] = U, uy[i] = V, uz[i] = W;                                                            \
     if (TEST_) any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);
 
 /* One step of a tile (GCP_FO_TILE_DEFINE_), with the stop test (TEST_ = 1,
@@ -494,18 +500,9 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
             for (size_t i = 0; i < nt; i++) {                                                   \
                 const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];           \
                 (void)bx, (void)by, (void)bz, (void)IG0;                                        \
-                double U = UC[0][i], V = UC[1][i], W = UC[2][i];                                \
-                const double X = XH[0][i], Y = XH[1][i], Z = XH[2][i];                          \
-                KICK_;                                                                          \
-                const double G1 = gcp_gamma_of_u(U, V, W);                                      \
-                if (CARRY_) G[i] = G1;                                                          \
-                const double g1 = h / G1;                                                       \
-                const double X1 = X + U * g1, Y1 = Y + V * g1, Z1 = Z + W * g1;                 \
-                x[i] = X1, y[i] = Y1, z[i] = Z1;                                                \
+                GCP_FO_KICK_DRIFT_(KICK_, CARRY_, UC[0][i], UC[1][i], UC[2][i], XH[0][i],       \
+                                   XH[1][i], XH[2][i])                                          \
                 UN[0][i] = U, UN[1][i] = V, UN[2][i] = W;                                       \
-                hg[i] = g1;                                                                     \
-                const double r2 = X1 * X1 + Y1 * Y1 + Z1 * Z1;                                  \
-                const double u2 = U * U + V * V + W * W;                                        \
                 any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                           \
             }                                                                                   \
             GCP_FO_IVDEP_                                                                       \
