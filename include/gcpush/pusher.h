@@ -154,6 +154,15 @@ struct gcp_block {
  * gcp_arithmetic_fast_available says which). */
 #define GCP_BLOCK_FAST_ARITH 2u
 
+/* A statement a stepper makes in b->flags, not a request: b->Bx, By, Bz
+ * hold B at the live lanes' positions, the field's own block evaluation
+ * bit for bit (gc-rk4's fused step in the dipole writes them at the end of
+ * its steps, and clears the flag before anything moves a lane or its state
+ * otherwise).  The invariant observer's quiet pass then reads B there
+ * instead of forming it again (src/diag/invariants_quiet.c).  Callers
+ * leave it clear; the push clears it on entry and on return. */
+#define GCP_BLOCK_B_AT_X (1u << 16)
+
 /* Non-zero when GCP_BLOCK_FAST_ARITH has a fast step for pusher p on this
  * CPU and build (in the closed-form fields, dipole and uniform). */
 int gcp_arithmetic_fast_available(const struct gcp_pusher_type *p);

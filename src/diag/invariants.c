@@ -47,7 +47,6 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
-#include "pushers/gc_rk4_priv.h"
 
 void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event *e)
 {

@@ -44,7 +44,6 @@
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
 #include "invariants_priv.h"
-#include "pushers/gc_rk4_priv.h"
 
 /* Slot k of the ring: a gsample's values and jd, but for its time (the
  * slot's, o->hot.rt[k]) and mu (a guiding centre's constant, in every slot

@@ -43,14 +43,7 @@ typedef int64_t (*gcp_rk4_tile_fn)(double *x, double *y, double *z, double *p, c
                                    int32_t *fst, double *const *cv, int carried, int32_t *stopped,
                                    size_t nt, int64_t kmax, const struct gcp_rk4_tile_args *a);
 
-/* A statement a stepper makes in b->flags: b->Bx, By, Bz hold B at the
- * live lanes' positions, the field's own block evaluation bit for bit
- * (gc-rk4's fused step in a closed-form field writes them at the end of
- * its steps, and clears the flag before anything moves a lane or its
- * state otherwise).  The invariant observer's quiet pass then reads B
- * there instead of forming it again (src/diag/invariants_quiet.c).  A
- * private bit, above the public GCP_BLOCK_* ones. */
-#define GCP_BLOCK_B_AT_X (1u << 16)
+/* GCP_BLOCK_B_AT_X (pusher.h): the fused step in the dipole sets it. */
 
 /* The tile function for a form (enum gcp_point_B_form) with or without E;
  * NULL where there is none. */
