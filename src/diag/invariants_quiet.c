@@ -35,7 +35,22 @@
  * interleaved runs on one core: 0.370 -> 0.350 s (bare push 0.174 s:
  * 2.13x -> 1.99x).  What bounds the pass now: two square roots and two
  * divisions a lane (|B|, gamma m, p^2/c^2, the J integrand), which the
- * events' bits fix. */
+ * events' bits fix.
+ *
+ * Since: those in a loop of their own, ahead of the lane logic (the engine
+ * pushes chunks of 64 lanes: 8 vectors a call, whose chains of two square
+ * roots and two divisions in series the big loop overlapped ~2 at a time),
+ * and p^2/c^2 as a product (stream_quiet_pass).  perf, cpu-clock samples of
+ * this function over those of the fused tile, gc-rk4 scene of
+ * tests/bench/observer.sh, medians of 5 runs a binary interleaved on the
+ * loaded 2-core machine: 0.27 -> 0.25 (the push as a whole: within the
+ * machine's +-20% noise).  What the observer costs there now, by perf
+ * (dwarf call graphs, share of its samples): the page faults of the event
+ * storage ~18% (40 MB of rows, zeroed by the kernel: ~0.2x the bare push
+ * alone, which the rows' size fixes), this pass ~20%, the mirror and
+ * equator points (mirror, equator, contour_A, azimuths, asin, drift
+ * contour) ~25%, the copies between the hot arrays and struct lane around
+ * them ~9%. */
 #include <math.h>
 #include <stdint.h>
 
