@@ -43,7 +43,7 @@
  * and p^2/c^2 as a product (stream_quiet_pass).  perf, cpu-clock samples of
  * this function over those of the fused tile, gc-rk4 scene of
  * tests/bench/observer.sh, medians of 5 runs a binary interleaved on the
- * loaded 2-core machine: 0.27 -> 0.25 (the push as a whole: within the
+ * loaded 2-core machine: 0.27 -> 0.26 (the push as a whole: within the
  * machine's +-20% noise).  What the observer costs there now, by perf
  * (dwarf call graphs, share of its samples): the page faults of the event
  * storage ~18% (40 MB of rows, zeroed by the kernel: ~0.2x the bare push
