@@ -525,8 +525,8 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
             return;
         } else {
             /* |B|, p^2 and the J integrand of every lane in one vectorised
-             * pass (the same expressions as jdot's: bit-identical), the
-             * rest per lane */
+             * pass (the quiet pass's expressions: GCP_INV_C2), the rest
+             * per lane */
             const double m = o->m;
             const double *restrict Bx = o->Bx, *restrict By = o->By, *restrict Bz = o->Bz;
             const double *restrict ppar = b->ppar, *restrict mu = b->mu;
@@ -535,7 +535,7 @@ static void observe_live(struct gcp_observer *o, const struct gcp_block *b, doub
             for (size_t i = 0; i < n; i++) {
                 Gb[i] = sqrt(Bx[i] * Bx[i] + By[i] * By[i] + Bz[i] * Bz[i]);
                 Gp2[i] = ppar[i] * ppar[i] + 2.0 * m * mu[i] * Gb[i];
-                Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] / (GCP_C_LIGHT * GCP_C_LIGHT));
+                Gjd[i] = ppar[i] * ppar[i] / sqrt(m * m + Gp2[i] * GCP_INV_C2);
             }
             const int hot = o->gc && !o->hybrid, c = (o->hot.cur + 1) % 3;
             o->hot.rt[c] = t;

@@ -35,7 +35,22 @@
  * interleaved runs on one core: 0.370 -> 0.350 s (bare push 0.174 s:
  * 2.13x -> 1.99x).  What bounds the pass now: two square roots and two
  * divisions a lane (|B|, gamma m, p^2/c^2, the J integrand), which the
- * events' bits fix. */
+ * events' bits fix.
+ *
+ * Since: those in a loop of their own, ahead of the lane logic (the engine
+ * pushes chunks of 64 lanes: 8 vectors a call, whose chains of two square
+ * roots and two divisions in series the big loop overlapped ~2 at a time),
+ * and p^2/c^2 as a product (stream_quiet_pass).  perf, cpu-clock samples of
+ * this function over those of the fused tile, gc-rk4 scene of
+ * tests/bench/observer.sh, medians of 5 runs a binary interleaved on the
+ * loaded 2-core machine: 0.27 -> 0.26 (the push as a whole: within the
+ * machine's +-20% noise).  What the observer costs there now, by perf
+ * (dwarf call graphs, share of its samples): the page faults of the event
+ * storage ~18% (40 MB of rows, zeroed by the kernel: ~0.2x the bare push
+ * alone, which the rows' size fixes), this pass ~20%, the mirror and
+ * equator points (mirror, equator, contour_A, azimuths, asin, drift
+ * contour) ~25%, the copies between the hot arrays and struct lane around
+ * them ~9%. */
 #include <math.h>
 #include <stdint.h>
 
@@ -160,6 +175,12 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
     const double *restrict tnext = o->hot.tnext, *restrict cx = o->hot.cx, *restrict cy = o->hot.cy;
     const int64_t *restrict az = o->hot.az;
     int64_t *restrict next = o->hot.next, *restrict hprev = o->hot.hprev, *restrict slow = o->hot.slow;
+    /* |B|, p^2 and jd first, straight into the new slot, in a loop of their
+     * own: each lane's is a chain of two square roots and two divisions in
+     * series (~110 cycles), and a chunk is 64 lanes (8 vectors); inside the
+     * loop below, whose ~150 instructions a vector fill the out-of-order
+     * window, ~2 vectors' chains overlapped, here all of them (the same
+     * expressions: the same numbers) */
     GCP_OBS_IVDEP
     for (size_t i = 0; i < n; i++) {
         const size_t li = idx ? idx[i] : i;
@@ -168,10 +189,26 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
         double bx, by, bz;
         if (dip) gcp_point_B_dipole(pc, x[i], y[i], z[i], &bx, &by, &bz);
         else bx = Bx[i], by = By[i], bz = Bz[i];
-        /* observe_live's |B|, p^2, jd (jdot's expressions) */
+        /* observe_live's |B|, p^2, jd.  jd = p_par^2 / sqrt(m^2 + p^2/c^2)
+         * multiplies by 1/c^2 (kernels.h GCP_INV_C2, folded at compile
+         * time) where jdot divides by c^2: the division was one of two in
+         * each lane's chain (~8% of this pass), and the product differs
+         * from the quotient by at most an ulp of p^2/c^2, ~1e-3 of m^2 for
+         * a 1 MeV proton, so m^2 + p^2/c^2 almost always rounds the same
+         * (tests/bench/observer.sh's gc-rk4 scene: 20 of 202251 bounce J,
+         * and 18 K, moved by an ulp, 2e-16 relative; nothing else).
+         * observe_live's own pass (the reference of tests/unit/
+         * test_invariants_quiet.c) takes the same product; jdot and
+         * gcp_obs_gamma_m (full orbit, energies) keep the division. */
         const double Gb = sqrt(bx * bx + by * by + bz * bz);
         const double Gp2 = pp[i] * pp[i] + 2.0 * m * mu[i] * Gb;
-        const double Gjd = pp[i] * pp[i] / sqrt(m * m + Gp2 / (GCP_C_LIGHT * GCP_C_LIGHT));
+        Bc[li] = Gb, p2c[li] = Gp2;
+        jdc[li] = pp[i] * pp[i] / sqrt(m * m + Gp2 * GCP_INV_C2);
+    }
+    GCP_OBS_IVDEP
+    for (size_t i = 0; i < n; i++) {
+        const size_t li = idx ? idx[i] : i;
+        const double Gb = Bc[li], Gjd = jdc[li];
         const double dot = x[i] * cx[li] + y[i] * cy[li];
         const double crs = y[i] * cx[li] - x[i] * cy[li];
         const double margin = 1e-9 * (fabs(x[i]) + fabs(y[i]));
@@ -203,7 +240,7 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
         J[li] = calm ? Jn : Jl;
         mub[li] = calm ? mn : mbl;
         X0[li] = x[i], X1[li] = y[i], X2[li] = z[i];
-        ppc[li] = pp[i], Bc[li] = Gb, p2c[li] = Gp2, jdc[li] = Gjd;
+        ppc[li] = pp[i];
     }
 }
 
