@@ -578,6 +578,30 @@ static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p,
  * back to back, so load from other processes hits all alike; best of the
  * repetitions, in this thread's CPU time (cpu_now).  The fraction is floor
  * time / push time (goal >= 0.80).
+ *
+ * What bounds it: "PIC L2" is the same call, one step, on STREAM_NC lanes
+ * of the scene that stay in L2, called n / STREAM_NC times a repetition --
+ * the step's arithmetic with no memory traffic to wait for.  floor / PIC L2
+ * is then the most "push PIC of floor" can reach even with every byte's
+ * traffic hidden behind the arithmetic.  A step of one call recomputes
+ * gamma(u) and the drift factor on entry (the block keeps no gamma array:
+ * that would be 16 B a lane more than the floor moves), so IEEE relativistic
+ * Boris does at least 2 square roots and 4 divisions a lane a call (uniform
+ * B; E and the dipole's field add more), on a divide unit of a fraction of
+ * the multipliers' throughput.  On the development machine (AMD EPYC,
+ * 2026-11-24, loaded) floor / PIC L2 read 0.81-0.87 in uniform B, 0.71-0.82
+ * in E and B and 0.66-0.69 in the dipole: the goal asks for the memory
+ * traffic hidden almost entirely behind the arithmetic, and in the dipole
+ * is out of reach for the IEEE step however the traffic is scheduled.
+ * Measured there (a stand-alone copy of the uniform-B tile) and not kept:
+ * non-temporal stores of x and u (the push writes the lines it has just
+ * read, so there is no read-for-ownership to save; they evict the line:
+ * 15-35% slower, the same bits), 2 MiB pages for the six arrays (floor and
+ * push alike unchanged), software prefetch one or more tiles ahead (1.4-1.6x
+ * slower), one loop a lane instead of the tile's loops (its dependency chain
+ * is longer than the out-of-order window hides: ~15% slower in L2, no gain
+ * streaming), tiles of 32 or 64 lanes (within the noise) and of 512 (the
+ * tile and its scratch fill L1: 1.5x slower).
  * ------------------------------------------------------------------------- */
 static volatile double stream_keep_s = 1.0, stream_keep_d = 0.0;
 
@@ -603,6 +627,8 @@ static NOINLINE void stream_floor(size_t n, double *restrict x, double *restrict
 }
 
 enum stream_scene { STREAM_UNIFORM_B, STREAM_UNIFORM_EB, STREAM_DIPOLE };
+/* lanes of the cached block (6 x 32 KiB of x and u: in L2, not in L1) */
+#define STREAM_NC ((size_t)4096)
 
 static void stream_scene(enum stream_scene sc, size_t n, int reps)
 {
@@ -623,10 +649,28 @@ static void stream_scene(enum stream_scene sc, size_t n, int reps)
         init_limit_scene(&b, n, sc == STREAM_DIPOLE ? LIMIT_BORIS_DIPOLE : LIMIT_BORIS_UNIFORM,
                          &dt);
     gcp_block_start(&b, f, 0.0);
+    /* the same push on STREAM_NC of the same lanes, called n / STREAM_NC
+     * times a repetition: the lane-steps of one streaming call with the
+     * block in L2, what the step's arithmetic alone costs a lane -- the
+     * streaming push can come no nearer the floor than floor / this */
+    struct gcp_block c;
+    if (gcp_block_alloc(&c, STREAM_NC)) {
+        fprintf(stderr, "bench_push: out of memory\n");
+        exit(1);
+    }
+    c.q = b.q, c.m = b.m;
+    {
+        double *src[] = {b.x, b.y, b.z, b.ux, b.uy, b.uz};
+        double *dst[] = {c.x, c.y, c.z, c.ux, c.uy, c.uz};
+        for (int k = 0; k < 6; k++) memcpy(dst[k], src[k], STREAM_NC * sizeof(double));
+    }
+    gcp_block_start(&c, f, 0.0);
+    const long ncall = (long)((n + STREAM_NC - 1) / STREAM_NC);
     double t_floor = INFINITY, t_triad = INFINITY, t_push[2] = {INFINITY, INFINITY};
     double t_fast = INFINITY; /* push PIC with arithmetic = fast (GCP_BLOCK_FAST_ARITH) */
+    double t_l2[2] = {INFINITY, INFINITY}; /* push PIC, fast: STREAM_NC lanes in L2 */
     const int fast = gcp_arithmetic_fast_available(&gcp_pusher_boris);
-    double t = 0.0;
+    double t = 0.0, tc = 0.0;
     /* repetition 0 is the warm-up: first touch of every array (page faults) */
     for (int rep = 0; rep <= reps; rep++) {
         double tk[6];
@@ -652,7 +696,18 @@ static void stream_scene(enum stream_scene sc, size_t n, int reps)
             t += dt;
             if (live != n) fprintf(stderr, "bench_push: %zu of %zu lanes stopped\n", n - live, n);
         }
+        double tl[3] = {0.0, 0.0, 0.0};
+        tl[0] = cpu_now();
+        for (int k = 0; k < 1 + fast; k++) {
+            c.flags = GCP_BLOCK_CALLER_CLOCK | (k ? GCP_BLOCK_FAST_ARITH : 0u);
+            for (long j = 0; j < ncall; j++, tc += dt)
+                if (gcp_block_advance_fo(&c, f, &gcp_pusher_boris, tc, dt, 1, NULL) != STREAM_NC)
+                    fprintf(stderr, "bench_push: lanes stopped in the L2 block\n");
+            tl[1 + k] = cpu_now();
+        }
         if (rep == 0) continue;
+        t_l2[0] = fmin(t_l2[0], tl[1] - tl[0]);
+        if (fast) t_l2[1] = fmin(t_l2[1], tl[2] - tl[1]);
         t_fast = fmin(t_fast, tk[5] - tk[4]);
         t_floor = fmin(t_floor, tk[1] - tk[0]);
         t_triad = fmin(t_triad, tk[2] - tk[1]);
@@ -664,8 +719,12 @@ static void stream_scene(enum stream_scene sc, size_t n, int reps)
            4e9 * t_triad / nn, 1e9 * t_push[0] / nn, 1e9 * t_push[1] / nn, t_floor / t_push[0],
            t_floor / t_push[1], 4.0 * t_triad / t_push[1]);
     if (fast) printf(" %9.3f %9.2f", 1e9 * t_fast / nn, t_floor / t_fast);
+    const double nl = (double)ncall * STREAM_NC;
+    printf(" %9.3f %9.2f", 1e9 * t_l2[0] / nl, (t_floor / nn) / (t_l2[0] / nl));
+    if (fast) printf(" %9.3f %9.2f", 1e9 * t_l2[1] / nl, (t_floor / nn) / (t_l2[1] / nl));
     printf("\n");
-    sink = b.x[n / 2] + b.Bx[n / 3];
+    sink = b.x[n / 2] + b.Bx[n / 3] + c.x[STREAM_NC / 2];
+    gcp_block_free(&c);
     gcp_block_free(&b);
     gcp_field_free(f);
 }
@@ -677,17 +736,22 @@ static void part_stream(void)
     printf("Issue 12: streaming, gcp_block_advance_fo (boris) one step per call over %zu "
            "particles,\n  against the memory floor of the same run (x, u read + written in "
            "place, 96 B),\n  best of %d, thread CPU time\n", n, reps);
-    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "", "floor", "triad", "push",
-           "push PIC", "push", "push PIC", "push PIC", "PIC fast", "PIC fast");
-    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "field", "96 B", "at 96 B", "", "",
-           "of floor", "of floor", "of triad", "", "of floor");
-    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "", "[ns]", "[ns]", "[ns]", "[ns]", "",
-           "(>=0.80)", "", "[ns]", "(>=0.80)");
+    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "", "floor",
+           "triad", "push", "push PIC", "push", "push PIC", "push PIC", "PIC fast", "PIC fast",
+           "PIC L2", "floor /", "fast L2", "floor /");
+    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "field", "96 B",
+           "at 96 B", "", "", "of floor", "of floor", "of triad", "", "of floor", "", "PIC L2",
+           "", "fast L2");
+    printf("  %-16s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", "", "[ns]", "[ns]",
+           "[ns]", "[ns]", "", "(>=0.80)", "", "[ns]", "(>=0.80)", "[ns]", "", "[ns]", "");
     for (int sc = STREAM_UNIFORM_B; sc <= STREAM_DIPOLE; sc++)
         stream_scene((enum stream_scene)sc, n, reps);
     printf("  (ns per particle; push: the block keeps each lane's t and steps, 24 B a lane more;\n"
            "   push PIC: the caller keeps the clock, GCP_BLOCK_CALLER_CLOCK, x and u only;\n"
-           "   PIC fast: the same with arithmetic = fast, GCP_BLOCK_FAST_ARITH, not IEEE rounded)\n\n");
+           "   PIC fast: the same with arithmetic = fast, GCP_BLOCK_FAST_ARITH, not IEEE rounded;\n"
+           "   PIC L2, fast L2: the same calls on %zu of the lanes, in L2: the step's arithmetic\n"
+           "   alone; floor / PIC L2: the most push PIC of floor can be, traffic all hidden)\n\n",
+           STREAM_NC);
 }
 
 /* fo_only: the full-orbit rows alone (a quick look at the Boris push). */
