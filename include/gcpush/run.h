@@ -221,6 +221,9 @@ struct gcp_schedule {
  * population, which 2 ranks cannot share evenly: 1.24x; in chunks of 32,
  * 5 chunks: 1.45-1.5x).  Smaller chunks cost more per particle (8: +21%,
  * 16: +10%, 32: +3% on one rank, gc-gl4 block solve and per-chunk work).
+ * A population larger than this is cut into ceil(count / size) chunks of
+ * its even share rounded up to whole 8-lane vectors (the last chunk the
+ * rest: the flagship's 40 electrons 24 + 16, not 32 + 8; driver.c).
  * A function of the scene alone, never of the rank count: a checkpoint's
  * chunks are the same chunks on restart with any number of ranks. */
 int64_t gcp_scene_chunk_size(const struct gcp_scene *s);

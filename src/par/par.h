@@ -30,7 +30,8 @@ void gcp_par_counter_free(struct gcp_par_counter *c);
  * probing for network hardware), the self and vader (shared memory)
  * transports, the collective and one-sided components that one node
  * uses, no hwloc plugins (PCI, OpenGL, OpenCL devices, libxml2), a yield
- * of the core while waiting in MPI and, in a
+ * of the core while waiting in MPI, the run-time components an application
+ * process selects anyway (GCP_PAR_RTE) and, in a
  * process started without mpirun, for no helper daemon -- each only where
  * neither the environment nor Open MPI's parameter files choose already,
  * and never under a launcher that does not say all ranks share the node.
@@ -45,8 +46,16 @@ enum {
     GCP_PAR_OSC = 16,  /* osc = sm */
     GCP_PAR_HWLOC = 32, /* HWLOC_PLUGINS_BLACKLIST: no I/O device or XML plugins */
     GCP_PAR_YIELD = 64, /* mpi_yield_when_idle = 1 */
+    /* the run-time layer's components an application process selects
+     * anyway, so that the others are not loaded (transport.c) */
+    GCP_PAR_STATE = 128,   /* state = app */
+    GCP_PAR_ERRMGR = 256,  /* errmgr = default_app */
+    GCP_PAR_SCHIZO = 512,  /* schizo = orte */
+    GCP_PAR_SHMEM = 1024,  /* shmem = mmap */
+    GCP_PAR_REACHABLE = 2048, /* reachable = weighted (only TCP asks it; with GCP_PAR_BTL only) */
+    GCP_PAR_RTE = GCP_PAR_STATE | GCP_PAR_ERRMGR | GCP_PAR_SCHIZO | GCP_PAR_SHMEM | GCP_PAR_REACHABLE,
     GCP_PAR_ONE_NODE = GCP_PAR_OB1 | GCP_PAR_BTL | GCP_PAR_COLL | GCP_PAR_OSC | GCP_PAR_HWLOC |
-                       GCP_PAR_YIELD
+                       GCP_PAR_YIELD | GCP_PAR_RTE
 };
 typedef const char *(*gcp_par_getenv)(void *ctx, const char *name);
 unsigned gcp_par_local_defaults(void);

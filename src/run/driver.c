@@ -22,11 +22,37 @@ int64_t gcp_scene_chunk_size(const struct gcp_scene *s)
     return c < GCP_CHUNK_MIN ? GCP_CHUNK_MIN : c > GCP_CHUNK ? GCP_CHUNK : c;
 }
 
+/* A population of n particles larger than a chunk in nc = ceil(n / cs)
+ * chunks of `piece` particles (the last one the rest): the even share
+ * ceil(n / nc) rounded up to whole 8-lane vectors, at most cs.  In chunks of
+ * cs the flagship's 40 electrons were 32 + 8, the 32 alone ~53% of the
+ * whole run's push: 2 ranks could not share it (the rank that drew it
+ * finished last, 0.01-0.05 s of CPU behind the other); 24 + 16 leave no
+ * chunk above ~40%, and LPT order (gcpush.c) then shares the flagship to
+ * ~50.3/49.7% by the scene's estimate.  Whole vectors: 20 + 20 cost each
+ * lane that falls outside the kernels' 8-wide loops more (the flagship's
+ * push +30% on one rank); 24 + 16 against 32 + 8 measured within the
+ * machine's noise (10 pairs run side by side, one rank: ratios 0.77-1.11,
+ * median 0.93; by the per-lane costs of run.h ~+1%).  Large ensembles
+ * (cs = 64) keep chunks of 64 and a rest (1000 -> 15 x 64 + 40). */
+static void pop_chunks(const struct gcp_population *p, int64_t cs, int64_t *nc, int64_t *piece)
+{
+    const int64_t n0 = (p->count + cs - 1) / cs;
+    int64_t even = n0 ? (p->count + n0 - 1) / n0 : 1;
+    even = (even + 7) / 8 * 8;
+    *piece = even < cs ? even : cs;
+    *nc = (p->count + *piece - 1) / *piece;
+}
+
 int64_t gcp_scene_chunk_count(const struct gcp_scene *s)
 {
     const int64_t cs = gcp_scene_chunk_size(s);
     int64_t n = 0;
-    for (size_t k = 0; k < s->npop; k++) n += (s->pops[k].count + cs - 1) / cs;
+    for (size_t k = 0; k < s->npop; k++) {
+        int64_t nc, piece;
+        pop_chunks(&s->pops[k], cs, &nc, &piece);
+        n += nc;
+    }
     return n;
 }
 
@@ -37,11 +63,11 @@ void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64
     *count = 0;
     for (size_t k = 0; k < s->npop; k++) {
         const struct gcp_population *p = &s->pops[k];
-        const int64_t nc = (p->count + cs - 1) / cs;
+        int64_t nc, piece;
+        pop_chunks(p, cs, &nc, &piece);
         if (c < nc) {
-            *first = p->first_id + c * cs;
-            const int64_t left = p->count - c * cs;
-            *count = left < cs ? left : cs;
+            *first = p->first_id + c * piece;
+            *count = c + 1 < nc ? piece : p->count - c * piece;
             return;
         }
         c -= nc;
@@ -51,11 +77,13 @@ void gcp_scene_chunk(const struct gcp_scene *s, int64_t c, int64_t *first, int64
 int64_t gcp_scene_chunk_of(const struct gcp_scene *s, int64_t id)
 {
     const int64_t cs = gcp_scene_chunk_size(s);
-    int64_t base = 0;
+    int64_t first = 0;
     for (size_t k = 0; k < s->npop; k++) {
         const struct gcp_population *p = &s->pops[k];
-        if (id < p->first_id + p->count) return base + (id - p->first_id) / cs;
-        base += (p->count + cs - 1) / cs;
+        int64_t nc, piece;
+        pop_chunks(p, cs, &nc, &piece);
+        if (id < p->first_id + p->count) return first + (id - p->first_id) / piece;
+        first += nc;
     }
     return -1;
 }

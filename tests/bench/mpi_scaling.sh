@@ -71,7 +71,8 @@ END {
 model "$t1" "$t2" "$TMP/np1.log" "$TMP/np2.log"
 # The flagship itself (runs/dipole.run as shipped: 90 particles, 4000
 # trajectory samples each): a short run where start-up, the trajectory
-# write and the chunking (gcp_scene_chunk_size: 5 chunks of <= 32) weigh.
+# write and the chunking (gcp_scene_chunk_size: 5 chunks of <= 32: 24 + 16 protons,
+# 24 + 16 electrons, 10 loss-cone electrons) weigh.
 sed "s|^file .*|file = $TMP/f.h5|" runs/dipole.run > "$TMP/f.run"
 f() { s=$(date +%s%N); mpirun -x GCPUSH_TIMING --oversubscribe --bind-to none -np "$1" "$GCPUSH" --quiet --force "$TMP/f.run" 2> "$TMP/f$1.log"; e=$(date +%s%N); echo $(( (e - s) / 1000000 )); }
 f 1 > /dev/null

@@ -23,6 +23,7 @@ static const char *lookup(void *ctx, const char *name)
 
 static const char *const no_files[] = {NULL};
 
+static unsigned decide_file(const char *text);
 static unsigned decide(const char *const *env) { return gcp_par_local_defaults_for(lookup, (void *)env, no_files); }
 
 Test(par_defaults, mpirun_one_node_gets_ob1)
@@ -50,7 +51,8 @@ Test(par_defaults, user_choice_kept)
     /* each choice of the user's removes only its own default */
     const char *btl[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
                          "OMPI_MCA_btl", "self,tcp", "OMPI_MCA_osc", "rdma", NULL};
-    cr_assert_eq(decide(btl), GCP_PAR_OB1 | GCP_PAR_COLL | GCP_PAR_HWLOC | GCP_PAR_YIELD);
+    cr_assert_eq(decide(btl), GCP_PAR_OB1 | GCP_PAR_COLL | GCP_PAR_HWLOC | GCP_PAR_YIELD |
+                                  (GCP_PAR_RTE & ~(unsigned)GCP_PAR_REACHABLE));
     const char *coll[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
                           "OMPI_MCA_coll", "^han", NULL};
     cr_assert_eq(decide(coll), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_COLL);
@@ -61,6 +63,40 @@ Test(par_defaults, user_choice_kept)
         const char *e[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2", hw[k], "x", NULL};
         cr_assert_eq(decide(e), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_HWLOC, "%s", hw[k]);
     }
+}
+
+/* The run-time layer's components (state, errmgr, schizo, shmem,
+ * reachable): each asked for only where nobody chose it; reachable only
+ * with gcpush's own btl (a user's list may hold tcp, which asks it);
+ * schizo not inside a workload manager's job, where its slurm, jsm or
+ * flux component may answer. */
+Test(par_defaults, runtime_components)
+{
+    static const struct { const char *var; unsigned bit; } one[] = {
+        {"OMPI_MCA_state", GCP_PAR_STATE},   {"OMPI_MCA_errmgr", GCP_PAR_ERRMGR},
+        {"OMPI_MCA_schizo", GCP_PAR_SCHIZO}, {"OMPI_MCA_shmem", GCP_PAR_SHMEM},
+        {"OMPI_MCA_reachable", GCP_PAR_REACHABLE}};
+    for (size_t k = 0; k < sizeof one / sizeof one[0]; k++) {
+        const char *e[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
+                           one[k].var, "x", NULL};
+        cr_assert_eq(decide(e), GCP_PAR_ONE_NODE & ~one[k].bit, "%s", one[k].var);
+    }
+    const char *tcp[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
+                         "OMPI_MCA_btl", "self,vader,tcp", NULL};
+    cr_assert_eq(decide(tcp), GCP_PAR_ONE_NODE & ~(unsigned)(GCP_PAR_BTL | GCP_PAR_REACHABLE));
+    static const char *const wlm[] = {"SLURM_JOB_ID", "SLURM_JOBID", "LSB_JOBID",
+                                      "JSM_NAMESPACE_SIZE", "FLUX_URI", "FLUX_JOB_ID"};
+    for (size_t k = 0; k < sizeof wlm / sizeof wlm[0]; k++) {
+        const char *e[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
+                           wlm[k], "7", NULL};
+        cr_assert_eq(decide(e), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_SCHIZO, "%s", wlm[k]);
+        const char *alone[] = {wlm[k], "7", NULL}; /* a singleton in an allocation */
+        cr_assert_eq(decide(alone), (GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED) & ~(unsigned)GCP_PAR_SCHIZO,
+                     "%s", wlm[k]);
+    }
+    /* a parameter file's choice counts as the environment's */
+    cr_assert_eq(decide_file("shmem = posix\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_SHMEM);
+    cr_assert_eq(decide_file("state = ^hnp\n"), GCP_PAR_ONE_NODE);
 }
 
 Test(par_defaults, singleton_and_other_launchers)
@@ -101,7 +137,7 @@ Test(par_defaults, parameter_files)
     cr_assert_eq(decide_file("pml = ^ucx, ob1\n"), no_pml);
     cr_assert_eq(decide_file("pml = cm\n"), no_pml);
     /* an exclusion list that names one of the components asked for */
-    const unsigned no_btl = GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_BTL;
+    const unsigned no_btl = GCP_PAR_ONE_NODE & ~(unsigned)(GCP_PAR_BTL | GCP_PAR_REACHABLE);
     cr_assert_eq(decide_file("btl = ^vader\n"), no_btl);
     cr_assert_eq(decide_file("btl = ^tcp,self\n"), no_btl);
     cr_assert_eq(decide_file("btl = ^tcp\n"), GCP_PAR_ONE_NODE);
