@@ -413,6 +413,17 @@ struct gcp_fo_fused {
             GCP_FO_GYRO_CLOSE8_(FORM_, FT_, ix + c0, n - c0 < 8 ? n - c0 : 8, KK, KF, UM, UP)   \
     }
 
+/* The second half of a lane's step in the gyro tile: the kick from u- in
+ * UC at x_1/2 in XH, u+ into UN, the second half drift; the caller adds
+ * the stop test where it is not proved false (FREE_). */
+#define GCP_FO_GYRO_LANE2_(KICK_, CARRY_)                                                       \
+    const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];                       \
+    (void)bx, (void)by, (void)bz, (void)IG0;                                                    \
+    GCP_FO_KICK_DRIFT_(KICK_, CARRY_, UC[0][i], UC[1][i], UC[2][i], XH[0][i], XH[1][i],         \
+                       XH[2][i])                                                                \
+    UN[0][i] = U, UN[1][i] = V, UN[2][i] = W;                                                   \
+    (void)r2, (void)u2, (void)Z1;
+
 /* A row of a gyro tile's buffer, read only. */
 typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buffer */
 #define GCP_FO_CT_(P) ((gcp_fo_ct_ *)(P))
@@ -442,8 +453,11 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
  * are the tile's own arrays during the call (copied in and out once: a
  * pointer a quantity spilled registers in the loops).  The same operations
  * on the same values in the same order per lane as one loop did:
- * bit-identical. */
-#define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_)                      \
+ * bit-identical.  FREE_, BMAG_: the plain tile's (GCP_FO_TILE_DEFINE_): the
+ * kick loop skips the stop test where it is proved false (a fifth of that
+ * loop's operations; the proof reads u at the step's start, in UC), with
+ * the same verdicts and bits as the test every step. */
+#define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_, FREE_, BMAG_)      \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
                          double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
@@ -485,7 +499,17 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
                 hg[i] = h / G0;                                                                 \
             }                                                                                   \
         }                                                                                       \
-        int64_t s = 0;                                                                          \
+        /* untested steps up to fend (FREE_ as in GCP_FO_TILE_DEFINE_: 1, the               \
+         * call's; 2, a stretch's, proved again at next, from u in UC) */                       \
+        int64_t s = 0, fend = 0, next = kmax;                                                   \
+        double hm = fabs(h);                                                                    \
+        if (FREE_ == 1 && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, 0.0, BMAG_,   \
+                                                GCP_FO_REL_TB_))                                \
+            fend = kmax;                                                                        \
+        if (FREE_ == 2 && gcp_fo_free_ok(a, kmax)) {                                            \
+            next = 0;                                                                           \
+            for (size_t i = 0; i < nt; i++) hm = fabs(hg[i]) > hm ? fabs(hg[i]) : hm;           \
+        }                                                                                       \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             int64_t nsp = 0;                                                                    \
@@ -496,14 +520,28 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
             for (size_t i = 0; i < nt; i++) {                                                   \
                 GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                       \
             }                                                                                   \
-            GCP_FO_IVDEP_                                                                       \
-            for (size_t i = 0; i < nt; i++) {                                                   \
-                const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];           \
-                (void)bx, (void)by, (void)bz, (void)IG0;                                        \
-                GCP_FO_KICK_DRIFT_(KICK_, CARRY_, UC[0][i], UC[1][i], UC[2][i], XH[0][i],       \
-                                   XH[1][i], XH[2][i])                                          \
-                UN[0][i] = U, UN[1][i] = V, UN[2][i] = W;                                       \
-                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                           \
+            if (s == next) {                                                                    \
+                int64_t kf = 0;                                                                 \
+                if (kmax - s >= GCP_FO_FREE_MIN)                                                \
+                    kf = gcp_fo_free_steps(x, y, z, UC[0], UC[1], UC[2], nt, hm, sqrt(rin2),    \
+                                           sqrt(rout2), zmax);                                  \
+                if (kf > kmax - s) kf = kmax - s;                                               \
+                if (kf >= GCP_FO_FREE_MIN)                                                      \
+                    fend = next = s + kf;                                                       \
+                else                                                                            \
+                    next = s + GCP_FO_FREE_KCHK;                                                \
+            }                                                                                   \
+            if (s < fend) {                                                                     \
+                GCP_FO_IVDEP_                                                                   \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    GCP_FO_GYRO_LANE2_(KICK_, CARRY_)                                           \
+                }                                                                               \
+            } else {                                                                            \
+                GCP_FO_IVDEP_                                                                   \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    GCP_FO_GYRO_LANE2_(KICK_, CARRY_)                                           \
+                    any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                       \
+                }                                                                               \
             }                                                                                   \
             GCP_FO_IVDEP_                                                                       \
             for (size_t i = 0; i < nt; i++) {                                                   \
@@ -561,9 +599,9 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, STASH_EB_, KICK2_EB_, 0,     \
                         USPLIT_, USPLIT_, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p))           \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, \
-                             FT)                                                                \
+                             FT, DFREE_, 0.0)                                                   \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY, \
-                             FT)                                                                \
+                             FT, USPLIT_, GCP_FO_ABS3_(a->p))                                   \
     static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
         .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}},                          \
