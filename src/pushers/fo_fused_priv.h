@@ -97,6 +97,7 @@ typedef int64_t (*gcp_fo_gyro_tile_fn)(double *x, double *y, double *z, double *
 struct gcp_fo_fused {
     gcp_fo_tile_fn tile[GCP_POINT_B_NFORMS][2];
     gcp_fo_gyro_tile_fn gyro[GCP_POINT_B_NFORMS];
+    int gyro_tele; /* the gyro tiles telescope S_r (gcp_fo_gyro.tele) */
 };
 
 /* The forms' B at (X, Y, Z) from a->p (field_kernels.h). */
@@ -322,11 +323,15 @@ struct gcp_fo_fused {
             const double e2[3] = {in8[13][l], in8[14][l], in8[15][l]};                          \
             double Sl[9], fn[9], e2n[3], rv[7], w0n, jcn;                                       \
             for (int j = 0; j < 9; j++) Sl[j] = in8[16 + j][l];                                 \
+            if (FT_) /* telescoped S_r: u+ at the start (and its fn) less u+ now */            \
+                for (int j = 0; j < 3; j++) Sl[3 + j] -= u1[j];                                 \
             ok8[l] = gcp_fo_gyro_close_vals(kk, ks8[l], in8[25][l], in8[26][l], e2, Sl, t0, dt, \
                                             q, m, F, scale, f, fp, u0, u1, rv, fn, e2n, &w0n,   \
                                             &jcn);                                              \
             for (int j = 0; j < 7; j++) rv8[j][l] = rv[j];                                      \
             for (int j = 0; j < 9; j++) out8[j][l] = fn[j];                                     \
+            if (FT_)                                                                            \
+                for (int j = 0; j < 3; j++) out8[3 + j][l] = fn[3 + j] + u1[j];                 \
             for (int j = 0; j < 3; j++) out8[9 + j][l] = e2n[j];                                \
             out8[12][l] = w0n, out8[13][l] = jcn;                                               \
         }                                                                                       \
@@ -372,7 +377,7 @@ struct gcp_fo_fused {
  * is added beside it -- and the phase test: u.e2 turns negative first, and the gyration ends where
  * it goes from > 0 to <= 0 (sp[i], counted in nsp; LF: 'left', set from
  * the steps before, since at a gyration's start u.e2 = 0 up to rounding). */
-#define GCP_FO_GYRO_SAMPLE_(KF, UM, UP)                                                         \
+#define GCP_FO_GYRO_SAMPLE_(KF, UM, UP, FT_)                                                    \
     {                                                                                           \
         const double F0 = KF[0][i], F1 = KF[1][i], F2 = KF[2][i];                               \
         const double U0 = UM[0][i], V0 = UM[1][i], W0 = UM[2][i];                               \
@@ -380,9 +385,11 @@ struct gcp_fo_fused {
         /* us = u- + u+ = 2 u_1/2 */                                                            \
         const double usx = U0 + U1, usy = V0 + V1, usz = W0 + W1;                               \
         const double fu = F0 * usx + F1 * usy + F2 * usz;                                       \
-        S[3][i] += F1 * usz - F2 * usy;                                                         \
-        S[4][i] += F2 * usx - F0 * usz;                                                         \
-        S[5][i] += F0 * usy - F1 * usx;                                                         \
+        if (!(FT_)) { /* else telescoped (fo_gyro_priv.h) */                                  \
+            S[3][i] += F1 * usz - F2 * usy;                                                     \
+            S[4][i] += F2 * usx - F0 * usz;                                                     \
+            S[5][i] += F0 * usy - F1 * usx;                                                     \
+        }                                                                                       \
         S[6][i] += fu;                                                                          \
         S[7][i] += fu * fu;                                                                     \
         S[8][i] += F0 * F0 + F1 * F1 + F2 * F2;                                                 \
@@ -548,7 +555,7 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
                 S[0][i] += XH[0][i];                                                            \
                 S[1][i] += XH[1][i];                                                            \
                 S[2][i] += XH[2][i];                                                            \
-                GCP_FO_GYRO_SAMPLE_(K, UC, UN)                                                  \
+                GCP_FO_GYRO_SAMPLE_(K, UC, UN, FT_)                                                  \
             }                                                                                   \
             GCP_FO_GYRO_CLOSES_(FORM_, FT_, k0 + s, K, UC, UN)                                  \
             if (any) {                                                                          \
@@ -606,7 +613,8 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
         .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}},                          \
         .gyro = {[GCP_POINT_B_UNIFORM] = NAME##_gyro_uniform_B,                                 \
-                 [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B}};
+                 [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B},                        \
+        .gyro_tele = FT};
 #define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
     GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, GCP_FO_STASH_B_,                      \
                                KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_),   \
