@@ -97,6 +97,7 @@ typedef int64_t (*gcp_fo_gyro_tile_fn)(double *x, double *y, double *z, double *
 struct gcp_fo_fused {
     gcp_fo_tile_fn tile[GCP_POINT_B_NFORMS][2];
     gcp_fo_gyro_tile_fn gyro[GCP_POINT_B_NFORMS];
+    int gyro_tele; /* the gyro tiles telescope S_r (gcp_fo_gyro.tele) */
 };
 
 /* The forms' B at (X, Y, Z) from a->p (field_kernels.h). */
@@ -332,11 +333,15 @@ struct gcp_fo_fused {
             const double e2[3] = {in8[13][l], in8[14][l], in8[15][l]};                          \
             double Sl[9], fn[9], e2n[3], rv[7], w0n, jcn;                                       \
             for (int j = 0; j < 9; j++) Sl[j] = in8[16 + j][l];                                 \
+            if (FT_) /* telescoped S_r: u+ at the start (and its fn) less u+ now */            \
+                for (int j = 0; j < 3; j++) Sl[3 + j] -= u1[j];                                 \
             ok8[l] = gcp_fo_gyro_close_vals(kk, ks8[l], in8[25][l], in8[26][l], e2, Sl, t0, dt, \
                                             q, m, F, scale, f, fp, u0, u1, rv, fn, e2n, &w0n,   \
                                             &jcn);                                              \
             for (int j = 0; j < 7; j++) rv8[j][l] = rv[j];                                      \
             for (int j = 0; j < 9; j++) out8[j][l] = fn[j];                                     \
+            if (FT_)                                                                            \
+                for (int j = 0; j < 3; j++) out8[3 + j][l] = fn[3 + j] + u1[j];                 \
             for (int j = 0; j < 3; j++) out8[9 + j][l] = e2n[j];                                \
             out8[12][l] = w0n, out8[13][l] = jcn;                                               \
         }                                                                                       \
@@ -382,7 +387,7 @@ struct gcp_fo_fused {
  * is added beside it -- and the phase test: u.e2 turns negative first, and the gyration ends where
  * it goes from > 0 to <= 0 (sp[i], counted in nsp; LF: 'left', set from
  * the steps before, since at a gyration's start u.e2 = 0 up to rounding). */
-#define GCP_FO_GYRO_SAMPLE_(KF, UM, UP)                                                         \
+#define GCP_FO_GYRO_SAMPLE_(KF, UM, UP, FT_)                                                    \
     {                                                                                           \
         const double F0 = KF[0][i], F1 = KF[1][i], F2 = KF[2][i];                               \
         const double U0 = UM[0][i], V0 = UM[1][i], W0 = UM[2][i];                               \
@@ -390,9 +395,11 @@ struct gcp_fo_fused {
         /* us = u- + u+ = 2 u_1/2 */                                                            \
         const double usx = U0 + U1, usy = V0 + V1, usz = W0 + W1;                               \
         const double fu = F0 * usx + F1 * usy + F2 * usz;                                       \
-        S[3][i] += F1 * usz - F2 * usy;                                                         \
-        S[4][i] += F2 * usx - F0 * usz;                                                         \
-        S[5][i] += F0 * usy - F1 * usx;                                                         \
+        if (!(FT_)) { /* else telescoped (fo_gyro_priv.h) */                                  \
+            S[3][i] += F1 * usz - F2 * usy;                                                     \
+            S[4][i] += F2 * usx - F0 * usz;                                                     \
+            S[5][i] += F0 * usy - F1 * usx;                                                     \
+        }                                                                                       \
         S[6][i] += fu;                                                                          \
         S[7][i] += fu * fu;                                                                     \
         S[8][i] += F0 * F0 + F1 * F1 + F2 * F2;                                                 \
@@ -423,6 +430,17 @@ struct gcp_fo_fused {
             GCP_FO_GYRO_CLOSE8_(FORM_, FT_, ix + c0, n - c0 < 8 ? n - c0 : 8, KK, KF, UM, UP)   \
     }
 
+/* The second half of a lane's step in the gyro tile: the kick from u- in
+ * UC at x_1/2 in XH, u+ into UN, the second half drift; the caller adds
+ * the stop test where it is not proved false (FREE_). */
+#define GCP_FO_GYRO_LANE2_(KICK_, CARRY_)                                                       \
+    const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];                       \
+    (void)bx, (void)by, (void)bz, (void)IG0;                                                    \
+    GCP_FO_KICK_DRIFT_(KICK_, CARRY_, UC[0][i], UC[1][i], UC[2][i], XH[0][i], XH[1][i],         \
+                       XH[2][i])                                                                \
+    UN[0][i] = U, UN[1][i] = V, UN[2][i] = W;                                                   \
+    (void)r2, (void)u2, (void)Z1;
+
 /* A row of a gyro tile's buffer, read only. */
 typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buffer */
 #define GCP_FO_CT_(P) ((gcp_fo_ct_ *)(P))
@@ -452,8 +470,11 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
  * are the tile's own arrays during the call (copied in and out once: a
  * pointer a quantity spilled registers in the loops).  The same operations
  * on the same values in the same order per lane as one loop did:
- * bit-identical. */
-#define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_)                      \
+ * bit-identical.  FREE_, BMAG_: the plain tile's (GCP_FO_TILE_DEFINE_): the
+ * kick loop skips the stop test where it is proved false (a fifth of that
+ * loop's operations; the proof reads u at the step's start, in UC), with
+ * the same verdicts and bits as the test every step. */
+#define GCP_FO_GYRO_TILE_DEFINE_(FNAME, FORM_, STASH_, KICK_, CARRY_, FT_, FREE_, BMAG_)      \
     static int64_t FNAME(double *restrict x, double *restrict y, double *restrict z,            \
                          double *restrict ux, double *restrict uy, double *restrict uz,         \
                          double *restrict hg_io, int hg_mode, size_t nt, int64_t kmax,          \
@@ -495,7 +516,17 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
                 hg[i] = h / G0;                                                                 \
             }                                                                                   \
         }                                                                                       \
-        int64_t s = 0;                                                                          \
+        /* untested steps up to fend (FREE_ as in GCP_FO_TILE_DEFINE_: 1, the               \
+         * call's; 2, a stretch's, proved again at next, from u in UC) */                       \
+        int64_t s = 0, fend = 0, next = kmax;                                                   \
+        double hm = fabs(h);                                                                    \
+        if (FREE_ == 1 && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, 0.0, BMAG_,   \
+                                                GCP_FO_REL_TB_))                                \
+            fend = kmax;                                                                        \
+        if (FREE_ == 2 && gcp_fo_free_ok(a, kmax)) {                                            \
+            next = 0;                                                                           \
+            for (size_t i = 0; i < nt; i++) hm = fabs(hg[i]) > hm ? fabs(hg[i]) : hm;           \
+        }                                                                                       \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             int64_t nsp = 0;                                                                    \
@@ -506,21 +537,35 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
             for (size_t i = 0; i < nt; i++) {                                                   \
                 GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                       \
             }                                                                                   \
-            GCP_FO_IVDEP_                                                                       \
-            for (size_t i = 0; i < nt; i++) {                                                   \
-                const double bx = K[0][i], by = K[1][i], bz = K[2][i], IG0 = K[3][i];           \
-                (void)bx, (void)by, (void)bz, (void)IG0;                                        \
-                GCP_FO_KICK_DRIFT_(KICK_, CARRY_, UC[0][i], UC[1][i], UC[2][i], XH[0][i],       \
-                                   XH[1][i], XH[2][i])                                          \
-                UN[0][i] = U, UN[1][i] = V, UN[2][i] = W;                                       \
-                any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                           \
+            if (s == next) {                                                                    \
+                int64_t kf = 0;                                                                 \
+                if (kmax - s >= GCP_FO_FREE_MIN)                                                \
+                    kf = gcp_fo_free_steps(x, y, z, UC[0], UC[1], UC[2], nt, hm, sqrt(rin2),    \
+                                           sqrt(rout2), zmax);                                  \
+                if (kf > kmax - s) kf = kmax - s;                                               \
+                if (kf >= GCP_FO_FREE_MIN)                                                      \
+                    fend = next = s + kf;                                                       \
+                else                                                                            \
+                    next = s + GCP_FO_FREE_KCHK;                                                \
+            }                                                                                   \
+            if (s < fend) {                                                                     \
+                GCP_FO_IVDEP_                                                                   \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    GCP_FO_GYRO_LANE2_(KICK_, CARRY_)                                           \
+                }                                                                               \
+            } else {                                                                            \
+                GCP_FO_IVDEP_                                                                   \
+                for (size_t i = 0; i < nt; i++) {                                               \
+                    GCP_FO_GYRO_LANE2_(KICK_, CARRY_)                                           \
+                    any |= gcp_lane_stops(r2, u2, Z1, rin2, rout2, zmax);                       \
+                }                                                                               \
             }                                                                                   \
             GCP_FO_IVDEP_                                                                       \
             for (size_t i = 0; i < nt; i++) {                                                   \
                 S[0][i] += XH[0][i];                                                            \
                 S[1][i] += XH[1][i];                                                            \
                 S[2][i] += XH[2][i];                                                            \
-                GCP_FO_GYRO_SAMPLE_(K, UC, UN)                                                  \
+                GCP_FO_GYRO_SAMPLE_(K, UC, UN, FT_)                                                  \
             }                                                                                   \
             GCP_FO_GYRO_CLOSES_(FORM_, FT_, k0 + s, K, UC, UN)                                  \
             if (any) {                                                                          \
@@ -571,14 +616,15 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
     GCP_FO_TILE_DEFINE_(NAME##_tile_uniform_EB, GCP_FO_B_UNIFORM_, STASH_EB_, KICK2_EB_, 0,     \
                         USPLIT_, USPLIT_, GCP_FO_ABS3_(a->p + 3), GCP_FO_ABS3_(a->p))           \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_dipole_B, GCP_FO_B_DIPOLE_, STASH_B_, KICK2_B_, CARRY, \
-                             FT)                                                                \
+                             FT, DFREE_, 0.0)                                                   \
     GCP_FO_GYRO_TILE_DEFINE_(NAME##_gyro_uniform_B, GCP_FO_B_UNIFORM_, STASH_B_, KICK2_B_, CARRY, \
-                             FT)                                                                \
+                             FT, USPLIT_, GCP_FO_ABS3_(a->p))                                   \
     static const struct gcp_fo_fused gcp_fo_fused_##NAME##_ = {                                 \
         .tile = {[GCP_POINT_B_UNIFORM] = {NAME##_tile_uniform_B, NAME##_tile_uniform_EB},       \
                  [GCP_POINT_B_DIPOLE] = {NAME##_tile_dipole_B, NULL}},                          \
         .gyro = {[GCP_POINT_B_UNIFORM] = NAME##_gyro_uniform_B,                                 \
-                 [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B}};
+                 [GCP_POINT_B_DIPOLE] = NAME##_gyro_dipole_B},                        \
+        .gyro_tele = FT};
 #define GCP_FO_FUSED_DEFINE(NAME, KICK, KICK_B, CARRY)                                          \
     GCP_FO_FUSED_DEFINE_SPLIT_(NAME, KICK, KICK_B, CARRY, GCP_FO_STASH_B_,                      \
                                KICK_B(&U, &V, &W, bx, by, bz, q, m, dt GCP_FO_IG_##CARRY##_),   \

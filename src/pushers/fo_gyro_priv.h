@@ -81,6 +81,10 @@ struct gcp_fo_gyro {
     int64_t nrec, cap;
     int64_t steps;
     int64_t max_steps; /* tests: the most steps a fused call takes (0: its own bound) */
+    /* GCP_FO_GYRO_MID with Boris's kick (gcp_fo_fused.gyro_tele, set by the
+     * fused step): S_r is telescoped (gcp_fo_gyro_mid_start), sum[3..5]
+     * hold the part of the start step past the crossing plus u there */
+    int tele;
 };
 
 /* b x e1 with b = B/|B| (the observer's unit() and cross product). */
@@ -201,12 +205,21 @@ static inline int gcp_fo_gyro_lane(struct gcp_fo_gyro *G, size_t li, double t, c
  * slope needs).  The phase is u's, not rho's: u . e2 also sees u_par b . e2
  * as b turns along the orbit, which moves the ends by O(eps) in phase --
  * harmless to averages that are constant up to O(eps) swings (O(eps^2)).
+ * With Boris's kick (F = t) S_r needs no per-step work: the rotation
+ * gives u+ - u- = us x t exactly (in real arithmetic; s = 2 / (1 + t^2)),
+ * so F x us = u- - u+ and the sum over the gyration's whole steps
+ * telescopes to u+ of its start step less u+ of its end step.  sum[3..5]
+ * then hold the start step's part past the crossing (fn, below) plus u+
+ * there (gcp_fo_gyro.tele): the close forms S_r = sum[3..5] - u+.  The
+ * two differ from the summed S_r by roundings of |u| eps (the summed one
+ * ~20 of |t| |us| eps), which move X by ~eps rho / N: the last bit of X
+ * at most (issue 12: ~12 of the per-step loop's ~45 operations a lane).
  * t is the weighted mean of the samples' times.  The per-step pass
  * (gcp_fo_gyro_lane, above) remains where there is no fused step (other
  * fields, lanes renumbered by a loss); a lane that changes from one to
  * the other begins a new gyration (the one in progress is dropped). */
 static inline void gcp_fo_gyro_mid_start(struct gcp_fo_gyro *G, size_t li, int64_t k, double w0,
-                                         const double e2[3])
+                                         const double e2[3], const double u[3])
 {
     G->init[li] = GCP_FO_GYRO_MID;
     G->left[li] = 0;
@@ -215,6 +228,8 @@ static inline void gcp_fo_gyro_mid_start(struct gcp_fo_gyro *G, size_t li, int64
     G->jc[li] = 0.0;
     for (int j = 0; j < 9; j++) G->sum[j][li] = 0.0;
     for (int j = 0; j < 3; j++) G->e2[j][li] = e2[j];
+    /* telescoped S_r (G->tele): the sum of F x us from step k on is u - u+ */
+    for (int j = 0; j < 3; j++) G->sum[3 + j][li] = G->tele ? u[j] : 0.0;
 }
 
 /* sgn (F x u): the phase reference of a gyration starting at u with the

@@ -246,7 +246,7 @@ static void fo_gyro_begin(const struct gcp_evolve *ev, struct gcp_fo_gyro *g, st
         const double F[3] = {b->Bx[i], b->By[i], b->Bz[i]}, u[3] = {b->ux[i], b->uy[i], b->uz[i]};
         double e2[3];
         gcp_fo_gyro_mid_e2(b->q, 1.0, F, u, e2);
-        gcp_fo_gyro_mid_start(g, i, k0, 1.0, e2);
+        gcp_fo_gyro_mid_start(g, i, k0, 1.0, e2, u);
     }
 }
 
@@ -428,6 +428,7 @@ static size_t advance_fo(struct gcp_block *b, const struct gcp_field *f,
         if (gyro && sampler && sampler->fn && sampler->every == 1) {
             c.gy = gyro;
             if (!form.has_E) c.gyro_tile = fz->gyro[form.form];
+            gyro->tele = fz->gyro_tele; /* how its tile keeps S_r (fo_gyro_priv.h) */
             if (c.gyro_tile &&
                 (nsteps <= 1 ||
                  !(c.gsave = malloc((6 + FO_GYRO_NSAVE) * (b->n + 1) * sizeof(double)))))
