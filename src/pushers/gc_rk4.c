@@ -471,10 +471,11 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
                                              .amax = o->adiabaticity_max, .q = b->q, .m = b->m};
         memcpy(c.targs.p, form.p, sizeof form.p);
         /* Scratch of n lanes: the save in the block's own E and hg scratch,
-         * which lives as long as the block, not a fresh allocation per
-         * push; a fresh one of ~0.5 MB (8192 lanes) is given back to the
-         * system at free and faults in again at the next push, ~100 page
-         * faults of ~16 us each on this VM (~20% of a 122-step push). */
+         * which lives as long as the block, and the carried form only
+         * with a sampler.  Allocated afresh per push (4 + 7 arrays, ~0.7 MB
+         * at 8192 lanes), they went back to the system at free (glibc
+         * trims the heap's top) and faulted in again at the next push:
+         * ~98 page faults of ~16 us on this VM, ~20% of a 122-step push. */
         const size_t N = b->n + 1;
         const int own = b->Bx && b->By && b->Bz;
         const int sampled = s && s->fn && s->every > 0;
