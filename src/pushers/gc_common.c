@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "gcpush/error.h"
+#include "gcpush/field_kernels.h"
 #include "gcpush/gc.h"
 #include "gcpush/kernels.h"
 #include "gcpush/particles.h"
@@ -50,11 +51,68 @@ int gcp_gc_eval(const struct gcp_field *f, double t, double q, double m, const d
     return 0;
 }
 
+/* gcp_gc_eval's verdicts over the lanes [0, n) where the field is the
+ * closed form `form` of field_kernels.h (its B, grad B and E are the
+ * model's eval bit for bit, and the model's status there is 0): the same
+ * operations (gcp_gc_rhs, the adiabaticity of gcp_gc_adiabaticity_of, the
+ * same order of tests, selected without a branch), with no field call
+ * per lane, so the loop vectorises; ~65 ns a lane in the dipole through
+ * gcp_gc_eval, which a push of 122 steps a lane pays at ~0.5 ns a step.
+ * form and withE are constants at each call (adia too in the dipole). */
+static inline __attribute__((always_inline)) void
+begin_form(int form, int withE, int adia, const double *restrict p, const struct gcp_block *b,
+           int32_t *restrict fst, size_t n, double amax)
+{
+    const double *restrict x = b->x, *restrict y = b->y, *restrict z = b->z;
+    const double *restrict pp = b->ppar, *restrict mu = b->mu;
+    const double q = b->q, m = b->m;
+    for (size_t i = 0; i < n; i++) {
+        double B[3], G[3][3], E[3] = {0.0, 0.0, 0.0};
+        if (form == GCP_POINT_B_DIPOLE) {
+            gcp_point_BG_dipole(p[0], x[i], y[i], z[i], B, G);
+        } else {
+            B[0] = p[0], B[1] = p[1], B[2] = p[2];
+            for (int a = 0; a < 3; a++) G[a][0] = G[a][1] = G[a][2] = 0.0;
+            if (withE) E[0] = p[3], E[1] = p[4], E[2] = p[5];
+        }
+        double dX[3], dp;
+        const double Bspar = gcp_gc_rhs(B, G, withE ? E : NULL, pp[i], mu[i], q, m, dX, &dp);
+        const int32_t nonfinite = !(fabs(dX[0] + dX[1] + dX[2] + dp) <= DBL_MAX);
+        const double Bm = sqrt(dot3(B, B));
+        int32_t bad = !(Bspar > 0.0) | !(Bm > 0.0);
+        if (adia) bad |= !(gcp_gc_adiabaticity_of(B, G, pp[i], mu[i], q, m) <= amax);
+        fst[i] = nonfinite * GCP_NONFINITE + (1 - nonfinite) * bad * GCP_NONADIABATIC;
+    }
+}
+
+/* The closed forms' verdicts (begin_form), one loop per form; 0 where the
+ * field has no form this covers. */
+static int begin_forms(const struct gcp_block *b, const struct gcp_field *f, size_t n,
+                       double amax)
+{
+    struct gcp_point_B form;
+    if (!gcp_field_point_B(f, &form) || form.has_E != (f->has_E != 0)) return 0;
+    int32_t *fst = b->fstatus;
+    const int adia = amax > 0.0;
+    if (form.form == GCP_POINT_B_DIPOLE && !form.has_E) {
+        if (adia) begin_form(GCP_POINT_B_DIPOLE, 0, 1, form.p, b, fst, n, amax);
+        else begin_form(GCP_POINT_B_DIPOLE, 0, 0, form.p, b, fst, n, amax);
+    } else if (form.form == GCP_POINT_B_UNIFORM) {
+        /* rare (a uniform field's guiding centre): the test of amax stays in the loop */
+        if (form.has_E) begin_form(GCP_POINT_B_UNIFORM, 1, adia, form.p, b, fst, n, amax);
+        else begin_form(GCP_POINT_B_UNIFORM, 0, adia, form.p, b, fst, n, amax);
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
 size_t gcp_gc_block_begin(struct gcp_block *b, const struct gcp_field *f, const struct gcp_push_opts *o)
 {
     size_t n = b->n_active;
     const int ok = isfinite(o->dt) && o->dt > 0.0 && o->nsteps >= 0 && isfinite(o->t0);
-    for (size_t i = 0; i < n; i++) {
+    const int formed = ok && begin_forms(b, f, n, o->adiabaticity_max);
+    for (size_t i = 0; i < n && !formed; i++) {
         const double X[3] = {b->x[i], b->y[i], b->z[i]};
         double dX[3], dp;
         /* the GC verdict rides in fstatus: classify ranks a non-finite

@@ -301,7 +301,11 @@ struct rk4_ctx {
     struct gcp_rk4_consts kc;
     gcp_rk4_tile_fn tile;          /* NULL: the block step */
     struct gcp_rk4_tile_args targs;
-    double *save;                  /* [4 b->n] the block's X, p_par at the start of rk4_steps */
+    /* [4][b->n] the block's X, p_par at the start of rk4_steps: the
+     * block's own E and hg scratch (pusher.h: owned by the block, which
+     * no guiding-centre push reads), else save_own */
+    double *save[4];
+    double *save_own;
     int64_t *done;                 /* [tiles] steps each tile took */
     /* the form at each lane's state, kept from a call of the fused step to
      * the next (gcp_rk4_tile_fn cv): B in the block's b->Bx, By, Bz (the
@@ -311,7 +315,11 @@ struct rk4_ctx {
      * a retirement's renumbering), which also clears the block's flag */
     double *vals;
     double *cv[7];
-    int carry; /* the tile carries the form (the dipole's; the uniform form's is its constants) */
+    /* the tile carries the form (the dipole's; the uniform form's is its
+     * constants) where a sampler follows the steps: without one, `steps`
+     * takes every step left in one call (evolve_priv.h), so nothing would
+     * read it */
+    int carry;
     int have;
 };
 
@@ -368,20 +376,20 @@ static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
     (void)ev, (void)t, (void)h, (void)lanes;
     *stops = 1; /* the evolve layer classifies after the steps, as after one */
     if (!c->tile) return 0;
-    const int carried = c->have;
+    const int carry = (c->have ? GCP_RK4_CARRY_IN : 0) | (c->carry ? GCP_RK4_CARRY_OUT : 0);
     rk4_drop(c, b);
     double *a[4] = {b->x, b->y, b->z, b->ppar};
-    for (int k = 0; k < 4; k++) memcpy(c->save + (size_t)k * b->n, a[k], n * sizeof(double));
+    for (int k = 0; k < 4; k++) memcpy(c->save[k], a[k], n * sizeof(double));
     int64_t kd = kmax;
     size_t tile = 0;
     int32_t stopped = 0;
     for (size_t i0 = 0; i0 < n; i0 += GCP_RK4_TILE, tile++) {
         const size_t nt = n - i0 < GCP_RK4_TILE ? n - i0 : GCP_RK4_TILE;
         double *cv[7];
-        for (int v = 0; v < 7; v++) cv[v] = c->cv[v] + i0;
+        for (int v = 0; v < 7; v++) cv[v] = c->cv[v] ? c->cv[v] + i0 : NULL;
         int32_t st;
         const int64_t k = c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, b->mu + i0,
-                                  b->fstatus + i0, cv, carried, &st, nt, kd, &c->targs);
+                                  b->fstatus + i0, cv, carry, &st, nt, kd, &c->targs);
         c->done[tile] = k;
         stopped |= st;
         if (k < kd) kd = k;
@@ -395,12 +403,10 @@ static int64_t rk4_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
         for (size_t i0 = 0; i0 < n; i0 += GCP_RK4_TILE, tile++) {
             if (c->done[tile] == kd) continue;
             const size_t nt = n - i0 < GCP_RK4_TILE ? n - i0 : GCP_RK4_TILE;
-            for (int k = 0; k < 4; k++)
-                memcpy(a[k] + i0, c->save + (size_t)k * b->n + i0, nt * sizeof(double));
+            for (int k = 0; k < 4; k++) memcpy(a[k] + i0, c->save[k] + i0, nt * sizeof(double));
             /* the carried form was overwritten by the steps past kd: formed
-             * again (the same numbers) */
-            double *cv[7];
-            for (int v = 0; v < 7; v++) cv[v] = c->cv[v] + i0;
+             * again (the same numbers); kd < kmax, so none is carried out */
+            double *cv[7] = {NULL};
             int32_t st;
             if (kd > 0)
                 c->tile(a[0] + i0, a[1] + i0, a[2] + i0, a[3] + i0, b->mu + i0, b->fstatus + i0,
@@ -464,24 +470,38 @@ static size_t gc_rk4_advance(struct gcp_block *b, const struct gcp_field *f,
                                              .rout2 = f->r_outer * f->r_outer, .zmax = f->z_max,
                                              .amax = o->adiabaticity_max, .q = b->q, .m = b->m};
         memcpy(c.targs.p, form.p, sizeof form.p);
+        /* Scratch of n lanes: the save in the block's own E and hg scratch,
+         * which lives as long as the block, and the carried form only
+         * with a sampler.  Allocated afresh per push (4 + 7 arrays, ~0.7 MB
+         * at 8192 lanes), they went back to the system at free (glibc
+         * trims the heap's top) and faulted in again at the next push:
+         * ~98 page faults of ~16 us on this VM, ~20% of a 122-step push. */
         const size_t N = b->n + 1;
-        c.save = malloc(4 * N * sizeof(double));
+        const int own = b->Bx && b->By && b->Bz;
+        const int sampled = s && s->fn && s->every > 0;
+        c.carry = form.form == GCP_POINT_B_DIPOLE && sampled;
+        double *bs[4] = {b->Ex, b->Ey, b->Ez, b->hg};
+        const int bsave = bs[0] && bs[1] && bs[2] && bs[3];
+        c.save_own = bsave ? NULL : malloc(4 * N * sizeof(double));
         c.done = malloc((b->n / GCP_RK4_TILE + 1) * sizeof(int64_t));
-        c.vals = malloc(7 * N * sizeof(double));
-        if (!c.save || !c.done || !c.vals) {
-            free(c.save), free(c.done), free(c.vals);
-            c.save = NULL, c.done = NULL, c.vals = NULL, c.tile = NULL;
+        c.vals = c.carry ? malloc((own ? 4 : 7) * N * sizeof(double)) : NULL;
+        if ((!bsave && !c.save_own) || !c.done || (c.carry && !c.vals)) {
+            free(c.save_own), free(c.done), free(c.vals);
+            c.save_own = NULL, c.done = NULL, c.vals = NULL, c.tile = NULL, c.carry = 0;
         } else {
-            const int own = b->Bx && b->By && b->Bz;
-            c.carry = form.form == GCP_POINT_B_DIPOLE;
-            for (int v = 0; v < 7; v++) c.cv[v] = c.vals + (size_t)v * N;
-            if (own) c.cv[0] = b->Bx, c.cv[1] = b->By, c.cv[2] = b->Bz;
+            for (int k = 0; k < 4; k++)
+                c.save[k] = bsave ? bs[k] : c.save_own + (size_t)k * N;
+            if (c.carry) {
+                const int v0 = own ? 3 : 0;
+                for (int v = v0; v < 7; v++) c.cv[v] = c.vals + (size_t)(v - v0) * N;
+                if (own) c.cv[0] = b->Bx, c.cv[1] = b->By, c.cv[2] = b->Bz;
+            }
         }
     }
     b->flags &= ~GCP_BLOCK_B_AT_X;
     const size_t live = gcp_evolve_inline(b, f, o, s, &rk4_stepper, &c);
     b->flags &= ~GCP_BLOCK_B_AT_X;
-    free(c.save);
+    free(c.save_own);
     free(c.done);
     free(c.vals);
     return live;

@@ -144,7 +144,8 @@ enum { ST_FIRST, ST_MID, ST_LAST };
  * next call's first stage 1 instead of forming them again: the same
  * numbers (the same function of the same state), so the push is the same
  * bit for bit.  With the observer a call is one step: the step's form is
- * then formed once for the pusher and the observer. */
+ * then formed once for the pusher and the observer.  Without a sampler a
+ * call takes every step of the push, and nothing is carried (carry 0). */
 
 struct tile_state {
     double S[4][GCP_RK4_TILE];   /* the stage state X, Y, Z, p_par */
@@ -251,7 +252,7 @@ adiabaticity_tile(int form, struct tile_state *restrict ts, const double *restri
 static inline __attribute__((always_inline)) int64_t
 tile_steps(int form, int withE, double *restrict x, double *restrict y, double *restrict z,
            double *restrict p, const double *restrict mu, int32_t *restrict fst,
-           double *const *restrict cv, int carried, int32_t *stopped, size_t nt, int64_t kmax,
+           double *const *restrict cv, int carry, int32_t *stopped, size_t nt, int64_t kmax,
            const struct gcp_rk4_tile_args *a)
 {
     *stopped = 0;
@@ -261,7 +262,7 @@ tile_steps(int form, int withE, double *restrict x, double *restrict y, double *
         /* the call's first stage 1 reads the form where it is carried in;
          * the others form it (in registers: carrying it from step to step
          * through the tile's memory cost ~6% of the step) */
-        int32_t any = s == 0 && carried
+        int32_t any = s == 0 && (carry & GCP_RK4_CARRY_IN)
                           ? stage(form, withE, ST_FIRST, 1, &ts, x, y, z, p, mu, fst, cv, nt, 1.0,
                                   0.5 * h, a)
                           : stage(form, withE, ST_FIRST, 0, &ts, x, y, z, p, mu, fst, cv, nt, 1.0,
@@ -271,9 +272,10 @@ tile_steps(int form, int withE, double *restrict x, double *restrict y, double *
         /* k2 at t + h/2 (weight 2, next offset h/2), k3 at t + h/2 (2, h), k4 at t + h (1) */
         stage(form, withE, ST_MID, 0, &ts, x, y, z, p, mu, fst, cv, nt, 2.0, 0.5 * h, a);
         stage(form, withE, ST_MID, 0, &ts, x, y, z, p, mu, fst, cv, nt, 2.0, 1.0 * h, a);
-        /* the call's last step writes the form at the new state */
+        /* the call's last step writes the form at the new state (where
+         * the caller asks: a next call or a sampler reads it) */
         const int32_t stop =
-            s == kmax - 1
+            s == kmax - 1 && (carry & GCP_RK4_CARRY_OUT)
                 ? stage(form, withE, ST_LAST, 1, &ts, x, y, z, p, mu, fst, cv, nt, 1.0, 0.0, a)
                 : stage(form, withE, ST_LAST, 0, &ts, x, y, z, p, mu, fst, cv, nt, 1.0, 0.0, a);
         if (stop) {
@@ -287,10 +289,10 @@ tile_steps(int form, int withE, double *restrict x, double *restrict y, double *
 #define TILE_FN_(NAME, FORM, WITHE)                                                             \
     static int64_t NAME(double *restrict x, double *restrict y, double *restrict z,             \
                         double *restrict p, const double *restrict mu, int32_t *restrict fst,    \
-                        double *const *cv, int carried, int32_t *stopped, size_t nt,             \
+                        double *const *cv, int carry, int32_t *stopped, size_t nt,               \
                         int64_t kmax, const struct gcp_rk4_tile_args *a)                         \
     {                                                                                           \
-        return tile_steps(FORM, WITHE, x, y, z, p, mu, fst, cv, carried, stopped, nt, kmax, a); \
+        return tile_steps(FORM, WITHE, x, y, z, p, mu, fst, cv, carry, stopped, nt, kmax, a);   \
     }
 TILE_FN_(tile_dipole_B, GCP_POINT_B_DIPOLE, 0)
 TILE_FN_(tile_uniform_B, GCP_POINT_B_UNIFORM, 0)

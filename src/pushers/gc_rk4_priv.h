@@ -35,12 +35,15 @@ struct gcp_rk4_tile_args {
 };
 /* cv: 7 arrays at the tile's first lane, the dipole form's B (3), |B|,
  * C_x, C_y and P at each lane's state: written by the call's step kmax
- * (after a call that took kmax steps they hold the form at the lanes'
- * state), read by the first step's stage 1 where carried is non-zero
- * (they then must hold the form at the state given) instead of forming it
- * again.  Other forms neither read nor write them. */
+ * where carry has GCP_RK4_CARRY_OUT (after a call that took kmax steps
+ * they hold the form at the lanes' state), read by the first step's stage
+ * 1 where carry has GCP_RK4_CARRY_IN (they then must hold the form at the
+ * state given) instead of forming it again.  Other forms neither read nor
+ * write them; with carry 0 cv is not used (may be NULL). */
+#define GCP_RK4_CARRY_IN 1
+#define GCP_RK4_CARRY_OUT 2
 typedef int64_t (*gcp_rk4_tile_fn)(double *x, double *y, double *z, double *p, const double *mu,
-                                   int32_t *fst, double *const *cv, int carried, int32_t *stopped,
+                                   int32_t *fst, double *const *cv, int carry, int32_t *stopped,
                                    size_t nt, int64_t kmax, const struct gcp_rk4_tile_args *a);
 
 /* GCP_BLOCK_B_AT_X (pusher.h): the fused step in the dipole sets it. */

@@ -17,7 +17,10 @@
  * at the start, as the scalar path says. */
 #include <criterion/criterion.h>
 
+#include "gcpush/field_kernels.h"
 #include "test_gc_util.h"
+#include "pushers/block_priv.h"
+#include "pushers/gc_priv.h"
 
 #define NSTEPS 300
 #define NL 37 /* lanes: not a multiple of a vector width or of the chunk */
@@ -114,4 +117,80 @@ Test(gc_block, rk4_block_equals_scalar_rk4)
     struct gcp_field *mir = gcp_field_mirror_create(0.1, 1.0, 5.0, 2.0);
     check_field(mir, "mirror", (const double[3]){0.05, 0.0, 0.0}, 0.05, 1e-2 * MeV, 2e-8, -1);
     gcp_field_free(mir);
+}
+
+/* gcp_gc_block_begin in a closed-form field (the dipole, a uniform B and E)
+ * takes its verdicts from one vectorised loop per form instead of
+ * gcp_gc_eval per lane (gc_common.c): each lane must end with the status
+ * the per-lane path gives -- gcp_gc_eval's verdict in fstatus, then
+ * gcp_block_classify, formed here on a copy -- exactly.  Lanes: ordinary
+ * ones, non-finite X and p_par, mu < 0, X at the dipole's centre (r^2
+ * floored), outside r_outer and inside r_inner; with amax > 0 lanes
+ * that only the adiabaticity verdict stops (a begin that skipped it would
+ * leave them alive: the count check below); and B = 0, where every
+ * finite lane's derivative is not (NONFINITE, ranked before the
+ * NONADIABATIC that B*_par = 0 gives too). */
+static void begin_case(const struct gcp_field *f, const char *name, double amax, int want_nonad)
+{
+    enum { N = 41 };
+    const double q = GCP_E_CHARGE, m = GCP_M_PROTON, p = gc_p_of_T(1e6 * GCP_E_CHARGE, m);
+    struct gcp_block b, c;
+    cr_assert_eq(gcp_block_alloc(&b, N), 0);
+    cr_assert_eq(gcp_block_alloc(&c, N), 0);
+    b.q = c.q = q, b.m = c.m = m;
+    for (int i = 0; i < N; i++) {
+        const double L = 2.0 + 0.2 * i, a = (10.0 + 2.0 * i) * GCP_PI / 180.0;
+        b.x[i] = L * GC_RE * cos(0.3 * i), b.y[i] = L * GC_RE * sin(0.3 * i);
+        b.z[i] = 0.1 * GC_RE * (i % 3);
+        const double X[3] = {b.x[i], b.y[i], b.z[i]};
+        b.ppar[i] = p * cos(a);
+        const double B = gc_Bmag(f, X);
+        b.mu[i] = (p * sin(a)) * (p * sin(a)) / (2.0 * m * (B > 0.0 ? B : 1e-5));
+    }
+    b.x[3] = NAN, b.ppar[5] = INFINITY, b.mu[7] = -b.mu[7];
+    b.x[9] = b.y[9] = b.z[9] = 0.0;           /* the centre */
+    b.x[11] = 20.0 * GC_RE, b.x[13] = 0.5 * GC_RE; /* outside, inside */
+    b.mu[15] = 0.0, b.ppar[15] = 0.0;         /* at rest */
+    b.n_active = N;
+    /* the per-lane path on a copy */
+    for (int i = 0; i < N; i++) {
+        c.x[i] = b.x[i], c.y[i] = b.y[i], c.z[i] = b.z[i], c.ppar[i] = b.ppar[i];
+        c.mu[i] = b.mu[i];
+        const double X[3] = {b.x[i], b.y[i], b.z[i]};
+        double dX[3], dp;
+        c.fstatus[i] = gcp_gc_eval(f, 0.0, q, m, X, b.ppar[i], b.mu[i], amax, dX, &dp);
+    }
+    c.n_active = N;
+    gcp_block_classify(&c, N, f, 1);
+    const struct gcp_push_opts o = {0.0, 1e-3, 10, 0.0, amax};
+    gcp_gc_block_begin(&b, f, &o);
+    int nonad = 0;
+    for (size_t l = 0; l < N; l++) {
+        const size_t i = b.index[l];
+        cr_assert_eq(b.status[l], c.status[i], "%s amax %g: lane %zu status %d, per lane %d",
+                     name, amax, i, b.status[l], c.status[i]);
+        nonad += b.status[l] == GCP_NONADIABATIC;
+    }
+    cr_assert(want_nonad ? nonad > 0 : nonad == 0, "%s amax %g: %d lanes NONADIABATIC", name, amax,
+              nonad);
+    gcp_block_free(&b);
+    gcp_block_free(&c);
+}
+
+Test(gc_block, begin_verdicts_in_closed_forms_are_the_per_lane_ones)
+{
+    struct gcp_field *dip = gcp_field_dipole_create(GC_B0, 0, GC_RE + 100e3, 15.0 * GC_RE);
+    struct gcp_point_B form;
+    cr_assert(gcp_field_point_B(dip, &form) && form.form == GCP_POINT_B_DIPOLE);
+    begin_case(dip, "dipole", 0.0, 0);
+    begin_case(dip, "dipole", 0.02, 1); /* 1 MeV protons: eps ~ 0.01 .. 0.1 over L = 2 .. 10 */
+    gcp_field_free(dip);
+    struct gcp_field *uni = gcp_field_uniform_create((const double[3]){1e-6, 2e-6, 3e-5},
+                                                     (const double[3]){1e-3, 0.0, 2e-4});
+    begin_case(uni, "uniform E and B", 0.0, 0);
+    gcp_field_free(uni);
+    struct gcp_field *zero = gcp_field_uniform_create((const double[3]){0.0, 0.0, 0.0},
+                                                      (const double[3]){0.0, 0.0, 0.0});
+    begin_case(zero, "B = 0", 0.0, 0);
+    gcp_field_free(zero);
 }
