@@ -129,4 +129,27 @@ static inline int64_t gcp_fo_free_steps(const double *restrict x, const double *
     return kmin;
 }
 
+/* At a stretch's proof step s (s == *next): the stretch's end, *fend =
+ * *next = s + K with K = gcp_fo_free_steps capped at the call's kmax, or,
+ * where K < GCP_FO_FREE_MIN, the next proof GCP_FO_FREE_KCHK steps on
+ * (those steps tested).  Shared by the plain tiles and the observer's gyro
+ * tile (fo_fused_priv.h), which pass their u- arrays. */
+static inline void gcp_fo_free_plan(int64_t s, int64_t kmax, const double *restrict x,
+                                    const double *restrict y, const double *restrict z,
+                                    const double *restrict ux, const double *restrict uy,
+                                    const double *restrict uz, size_t n, double h,
+                                    const struct gcp_fo_tile_args *a, int64_t *next,
+                                    int64_t *fend)
+{
+    int64_t kf = 0;
+    if (kmax - s >= GCP_FO_FREE_MIN)
+        kf = gcp_fo_free_steps(x, y, z, ux, uy, uz, n, h, sqrt(a->rin2), sqrt(a->rout2),
+                               a->zmax);
+    if (kf > kmax - s) kf = kmax - s;
+    if (kf >= GCP_FO_FREE_MIN)
+        *fend = *next = s + kf;
+    else
+        *next = s + GCP_FO_FREE_KCHK;
+}
+
 #endif

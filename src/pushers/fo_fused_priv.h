@@ -234,17 +234,8 @@ struct gcp_fo_fused {
         }                                                                                       \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
-            if (s == next) {                                                                    \
-                int64_t kf = 0;                                                                 \
-                if (kmax - s >= GCP_FO_FREE_MIN)                                                \
-                    kf = gcp_fo_free_steps(x, y, z, ux, uy, uz, nt, hm, sqrt(rin2),             \
-                                           sqrt(rout2), zmax);                                  \
-                if (kf > kmax - s) kf = kmax - s;                                               \
-                if (kf >= GCP_FO_FREE_MIN)                                                      \
-                    fend = next = s + kf;                                                       \
-                else                                                                            \
-                    next = s + GCP_FO_FREE_KCHK;                                                \
-            }                                                                                   \
+            if (s == next)                                                                      \
+                gcp_fo_free_plan(s, kmax, x, y, z, ux, uy, uz, nt, hm, a, &next, &fend);        \
             if (s < fend) {                                                                     \
                 GCP_FO_TILE_STEP_(FORM_, STASH_, KICK_, CARRY_, SPLIT_, 0)                      \
                 (void)any;                                                                      \
@@ -537,17 +528,8 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
             for (size_t i = 0; i < nt; i++) {                                                   \
                 GCP_FO_GYRO_LANE1_(FORM_, STASH_, CARRY_)                                       \
             }                                                                                   \
-            if (s == next) {                                                                    \
-                int64_t kf = 0;                                                                 \
-                if (kmax - s >= GCP_FO_FREE_MIN)                                                \
-                    kf = gcp_fo_free_steps(x, y, z, UC[0], UC[1], UC[2], nt, hm, sqrt(rin2),    \
-                                           sqrt(rout2), zmax);                                  \
-                if (kf > kmax - s) kf = kmax - s;                                               \
-                if (kf >= GCP_FO_FREE_MIN)                                                      \
-                    fend = next = s + kf;                                                       \
-                else                                                                            \
-                    next = s + GCP_FO_FREE_KCHK;                                                \
-            }                                                                                   \
+            if (s == next)                                                                      \
+                gcp_fo_free_plan(s, kmax, x, y, z, UC[0], UC[1], UC[2], nt, hm, a, &next, &fend);\
             if (s < fend) {                                                                     \
                 GCP_FO_IVDEP_                                                                   \
                 for (size_t i = 0; i < nt; i++) {                                               \
