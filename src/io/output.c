@@ -164,7 +164,8 @@ static void write_trajectories(struct writer *w)
 /* The event tables (output_events.c) with this writer's file, transfer and rows. */
 static struct gcp_ev_writer ev_writer(const struct writer *w)
 {
-    return (struct gcp_ev_writer){w->file, w->dxpl_ind, w->r, w->total, 0, w->evcnt};
+    return (struct gcp_ev_writer){w->file, w->dxpl_ind, w->r, w->total, 0, w->evcnt, w->evbuf,
+                                  w->evcap};
 }
 
 static void write_events(struct writer *w, const struct gcp_scene *sc, MPI_Comm comm)
@@ -467,17 +468,10 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     w.dxpl_ind = H5Pcreate(H5P_DATASET_XFER);
     H5Pset_dxpl_mpio(w.dxpl_ind, H5FD_MPIO_INDEPENDENT);
 
-    /* the event tables' counts, allocated once and agreed on once for all
-     * of them (else each table agrees on its own allocations) */
-    if (sc->invariants || sc->events || r->hybrid) {
-        w.evcnt = calloc((size_t)(sc->total + 1), sizeof *w.evcnt);
-        int nocnt = !w.evcnt;
-        MPI_Allreduce(MPI_IN_PLACE, &nocnt, 1, MPI_INT, MPI_MAX, comm);
-        if (nocnt) {
-            free(w.evcnt);
-            w.evcnt = NULL;
-        }
-    }
+    /* every event table's counts and buffers, summed and agreed on once
+     * for all of them (else each table agrees on its own) */
+    if (sc->invariants || sc->events || r->hybrid)
+        w.evcnt = gcp_output_event_counts(r, sc->total, &w.evbuf, &w.evcap, comm);
     gcp_h5_root_attrs(&w.bad, w.file, sc, nranks);
     write_particles(&w, sc);
     gcp_phase_mark("w-particles");
@@ -493,6 +487,7 @@ int gcp_output_write(const struct gcp_scene *sc, const struct gcp_results *r, MP
     H5Pclose(w.dxpl);
     H5Pclose(w.dxpl_ind);
     free(w.evcnt);
+    free(w.evbuf);
     gcp_writer_spread_free(&w);
     if (H5Fclose(w.file) < 0) w.bad = 1;
     MPI_Allreduce(MPI_IN_PLACE, &w.bad, 1, MPI_INT, MPI_MAX, comm);

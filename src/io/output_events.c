@@ -39,51 +39,100 @@ struct ev_sel {
     int scalar;        /* the kind's events are r->ev.s (gcp_event_scalar) */
 };
 
-/* The particle id of event k of a table. */
+/* A table's row buffers, carved from one block of cap rows (EV_ROW bytes
+ * each): the selection (idx, row) and the columns' staging (id, t, v, st). */
+#define EV_ROW (5 * sizeof(int64_t) + GCP_EVENT_NV * sizeof(double) + sizeof(int32_t))
+struct ev_bufs {
+    int64_t *idx, *row, *id;
+    double *t, *v;
+    int32_t *st;
+};
+static struct ev_bufs ev_carve(void *block, int64_t cap)
+{
+    struct ev_bufs b;
+    b.idx = block;
+    b.row = b.idx + cap;
+    b.id = b.row + cap;
+    b.t = (double *)(b.id + cap);
+    b.v = b.t + cap;
+    b.st = (int32_t *)(b.v + cap * GCP_EVENT_NV);
+    return b;
+}
+
+/* The kind of event k of a table, and its particle id. */
+static int32_t ev_kind(const struct gcp_events *ev, int scalar, int64_t k)
+{
+    return scalar ? ev->s[k].kind : ev->e[k].kind;
+}
 static int64_t ev_id(const struct gcp_events *ev, int scalar, int64_t k)
 {
     return scalar ? ev->s[k].id : ev->e[k].id;
 }
 
-/* Selects this rank's events of `kind` and their file rows; `local_bad`
- * (the caller's own allocations) joins the agreement.  With the writer's
- * shared counts (w->cnt) that agreement rides on the counts' Allreduce, as
- * entry N: one collective per table, where a wait for the slower rank each
- * time cost 2 ranks ~2 ms a table under load. */
+int64_t *gcp_output_event_counts(const struct gcp_results *r, int64_t N, void **buf,
+                                 int64_t *bufcap, MPI_Comm comm)
+{
+    *buf = NULL, *bufcap = 0;
+    const int64_t K = GCP_EVENT_KINDS;
+    if (N > ((int64_t)64 << 20) / (int64_t)sizeof(int64_t) / K) return NULL; /* same on every rank */
+    int64_t *cnt = calloc((size_t)(K * N + 1), sizeof *cnt);
+    int64_t nk[GCP_EVENT_KINDS] = {0}, cap = 1;
+    for (int scalar = 0; scalar < 2 && cnt; scalar++)
+        for (int64_t k = 0; k < (scalar ? r->ev.ns : r->ev.n); k++) {
+            const int32_t kd = ev_kind(&r->ev, scalar, k);
+            const int64_t id = ev_id(&r->ev, scalar, k);
+            if (kd < 0 || kd >= K) continue;
+            nk[kd]++;
+            if (id >= 0 && id < N) cnt[kd * N + id]++;
+        }
+    for (int k = 0; k < K; k++) cap = nk[k] > cap ? nk[k] : cap;
+    *buf = cnt ? malloc((size_t)cap * EV_ROW) : NULL;
+    int64_t bad = !*buf;
+    if (cnt) cnt[K * N] = bad;
+    MPI_Allreduce(MPI_IN_PLACE, cnt ? cnt : &bad, cnt ? (int)(K * N + 1) : 1, MPI_INT64_T, MPI_SUM,
+                  comm);
+    if (cnt && !cnt[K * N]) {
+        *bufcap = cap;
+        return cnt;
+    }
+    free(cnt);
+    free(*buf);
+    *buf = NULL;
+    return NULL;
+}
+
+/* Selects this rank's events of `kind` (into sel->idx, sel->row: set by the
+ * caller) and their file rows; `local_bad` (the caller's own allocations)
+ * joins the agreement.  With the writer's counts of every table (w->cnt,
+ * gcp_output_event_counts) there is no collective here: one Allreduce for
+ * all of the tables, where one per table (each a wait for the slower rank)
+ * cost 2 ranks a few ms a table under load. */
 static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev_sel *sel,
                      int local_bad)
 {
     const struct gcp_results *r = w->r;
     const int64_t N = w->total;
-    memset(sel, 0, sizeof *sel);
-    int64_t *cnt = w->cnt ? w->cnt : calloc((size_t)(N + 1), sizeof *cnt);
-    if (w->cnt) memset(cnt, 0, (size_t)(N + 1) * sizeof *cnt);
+    int64_t *cnt = w->cnt ? w->cnt + (int64_t)kind * N : calloc((size_t)(N + 1), sizeof *cnt);
     sel->scalar = gcp_event_scalar(kind);
-    const int64_t nev = sel->scalar ? r->ev.ns : r->ev.n;
-    sel->idx = malloc((size_t)(nev ? nev : 1) * sizeof *sel->idx);
-    sel->row = malloc((size_t)(nev ? nev : 1) * sizeof *sel->row);
-    int bad = !cnt || !sel->idx || !sel->row || local_bad;
+    sel->n = 0;
     if (!w->cnt) {
+        int bad = !cnt || local_bad;
         MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
         if (bad) {
             free(cnt);
             return -1;
         }
     }
-    for (int64_t k = 0; k < nev && !bad; k++) {
+    const int64_t nev = sel->scalar ? r->ev.ns : r->ev.n;
+    for (int64_t k = 0; k < nev; k++) {
         const int64_t id = ev_id(&r->ev, sel->scalar, k);
-        const int32_t kd = sel->scalar ? r->ev.s[k].kind : r->ev.e[k].kind;
-        if (kd != kind || id < 0 || id >= N) continue;
+        if (ev_kind(&r->ev, sel->scalar, k) != kind || id < 0 || id >= N) continue;
         sel->idx[sel->n++] = k;
-        cnt[id]++;
+        if (!w->cnt) cnt[id]++;
     }
-    cnt[N] = bad;
-    MPI_Allreduce(MPI_IN_PLACE, cnt, (int)(N + 1), MPI_INT64_T, MPI_SUM, comm);
-    if (cnt[N]) {
-        if (!w->cnt) free(cnt);
-        return -1;
-    }
-    /* cnt -> first row of each particle */
+    if (!w->cnt) MPI_Allreduce(MPI_IN_PLACE, cnt, (int)N, MPI_INT64_T, MPI_SUM, comm);
+    /* cnt -> first row of each particle (w->cnt: each kind's slice is
+     * read by its one table) */
     int64_t acc = 0;
     for (int64_t i = 0; i < N; i++) {
         const int64_t c = cnt[i];
@@ -94,12 +143,6 @@ static int ev_select(struct gcp_ev_writer *w, int kind, MPI_Comm comm, struct ev
     for (int64_t j = 0; j < sel->n; j++) sel->row[j] = cnt[ev_id(&r->ev, sel->scalar, sel->idx[j])]++;
     if (!w->cnt) free(cnt);
     return 0;
-}
-
-static void ev_sel_free(struct ev_sel *sel)
-{
-    free(sel->idx);
-    free(sel->row);
 }
 
 /* Dataset `name` of shape {M, d1, d2} (rank 1..3): row j of this rank gets
@@ -150,25 +193,28 @@ void gcp_output_event_table(struct gcp_ev_writer *w, hid_t parent, const char *n
                            MPI_Comm comm)
 {
     const struct gcp_results *r = w->r;
-    /* the rows' buffers first (this rank's events of the kind), so that
-     * their failure joins the one agreement in ev_select */
-    int64_t nk = 0;
-    if (gcp_event_scalar(kind))
-        for (int64_t k = 0; k < r->ev.ns; k++) nk += r->ev.s[k].kind == kind;
-    else
-        for (int64_t k = 0; k < r->ev.n; k++) nk += r->ev.e[k].kind == kind;
-    const size_t n = (size_t)(nk ? nk : 1);
-    int64_t *id = malloc(n * sizeof *id);
-    int32_t *st = malloc(n * sizeof *st);
-    double *t = malloc(n * sizeof *t);
-    double *v = malloc(n * GCP_EVENT_NV * sizeof *v);
-    struct ev_sel sel;
-    if (ev_select(w, kind, comm, &sel, !id || !st || !t || !v)) {
-        ev_sel_free(&sel);
-        free(id);
-        free(st);
-        free(t);
-        free(v);
+    /* the rows' buffers: the writer's (w->buf, sized for the largest
+     * table), else this table's own, whose failure joins the agreement in
+     * ev_select */
+    void *own = NULL;
+    struct ev_bufs b;
+    if (w->buf) {
+        b = ev_carve(w->buf, w->bufcap);
+    } else {
+        int64_t nk = 0;
+        if (gcp_event_scalar(kind))
+            for (int64_t k = 0; k < r->ev.ns; k++) nk += r->ev.s[k].kind == kind;
+        else
+            for (int64_t k = 0; k < r->ev.n; k++) nk += r->ev.e[k].kind == kind;
+        own = malloc((size_t)(nk ? nk : 1) * EV_ROW);
+        b = own ? ev_carve(own, nk ? nk : 1) : (struct ev_bufs){0};
+    }
+    int64_t *id = b.id;
+    int32_t *st = b.st;
+    double *t = b.t, *v = b.v;
+    struct ev_sel sel = {.idx = b.idx, .row = b.row};
+    if (ev_select(w, kind, comm, &sel, !w->buf && !own)) {
+        free(own);
         w->bad = 1;
         return;
     }
@@ -209,11 +255,7 @@ void gcp_output_event_table(struct gcp_ev_writer *w, hid_t parent, const char *n
                          cols[c].d2, &sel, v, cols[c].units);
         }
     }
-    free(id);
-    free(st);
-    free(t);
-    free(v);
-    ev_sel_free(&sel);
+    free(own);
     H5Gclose(g);
 }
 

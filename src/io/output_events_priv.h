@@ -17,10 +17,20 @@ struct gcp_ev_writer {
     const struct gcp_results *r;
     int64_t total;                /* particles in the file */
     int bad;                      /* a call failed on this rank */
-    int64_t *cnt;                 /* total + 1 counts shared by the tables, allocated
-                                   * on every rank (one agreement for all of them), or
+    int64_t *cnt;                 /* every table's counts (gcp_output_event_counts), or
                                    * NULL: each table allocates and agrees on its own */
+    void *buf;                    /* with cnt: row buffers for bufcap rows */
+    int64_t bufcap;
 };
+
+/* Collective: the per-particle counts of every event kind (kind k:
+ * [k total, (k + 1) total)) summed over ranks, and in *buf the row buffers
+ * of the largest table of this rank (*bufcap rows), all allocations agreed
+ * on in the one Allreduce; NULL (and *buf NULL) where an allocation failed
+ * on a rank or the counts would pass 64 MiB (then each table counts and
+ * agrees on its own).  Free both. */
+int64_t *gcp_output_event_counts(const struct gcp_results *r, int64_t total, void **buf,
+                                 int64_t *bufcap, MPI_Comm comm);
 
 /* One table: id, t, then the named value slots (count values from slot). */
 struct gcp_ev_col {

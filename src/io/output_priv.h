@@ -47,6 +47,8 @@ struct writer {
     double t0, last;         /* wall clock: write start, last progress line */
     int ndone;               /* datasets written */
     int64_t *evcnt;          /* the event tables' shared counts (output_events_priv.h), or NULL */
+    void *evbuf;             /* with evcnt: their row buffers, evcap rows */
+    int64_t evcap;
 };
 
 static inline double wall(void) { return MPI_Wtime(); }
