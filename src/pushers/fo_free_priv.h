@@ -129,6 +129,28 @@ static inline int64_t gcp_fo_free_steps(const double *restrict x, const double *
     return kmin;
 }
 
+/* A relativistic tile's call start (FREE_ of GCP_FO_TILE_DEFINE_ and the
+ * gyro tile): free = 1, the whole call untested where the uniform field's
+ * proof holds (*fend = kmax); free = 2, the dipole's stretches, the first
+ * proved at step 0 (*next = 0) with *hm the largest |h/gamma| of the tile;
+ * otherwise every step tested (*next = kmax, no proof step). */
+static inline void gcp_fo_free_begin(int free, const double *restrict x, const double *restrict y,
+                                     const double *restrict z, const double *restrict ux,
+                                     const double *restrict uy, const double *restrict uz,
+                                     const double *restrict hg, size_t nt, int64_t kmax,
+                                     const struct gcp_fo_tile_args *a, double emag, double bmag,
+                                     double h, int64_t *fend, int64_t *next, double *hm)
+{
+    *fend = 0, *next = kmax, *hm = fabs(h);
+    if (free == 1 && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, emag, bmag,
+                                           GCP_FO_REL_TB_))
+        *fend = kmax;
+    if (free == 2 && gcp_fo_free_ok(a, kmax)) {
+        double m = *hm;
+        for (size_t i = 0; i < nt; i++) m = fabs(hg[i]) > m ? fabs(hg[i]) : m;
+        *next = 0, *hm = m;
+    }
+}
 /* At a stretch's proof step s (s == *next): the stretch's end, *fend =
  * *next = s + K with K = gcp_fo_free_steps capped at the call's kmax, or,
  * where K < GCP_FO_FREE_MIN, the next proof GCP_FO_FREE_KCHK steps on

@@ -223,15 +223,10 @@ struct gcp_fo_fused {
         }                                                                                       \
         /* untested steps up to fend (FREE_ = 1: the call's, FREE_ = 2: a                       \
          * stretch's, proved again at next) */                                                  \
-        int64_t s = 0, fend = 0, next = kmax;                                                   \
-        double hm = fabs(h);                                                                    \
-        if (FREE_ == 1 && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, EMAG_, BMAG_, \
-                                                GCP_FO_REL_TB_))                                \
-            fend = kmax;                                                                        \
-        if (FREE_ == 2 && gcp_fo_free_ok(a, kmax)) {                                            \
-            next = 0;                                                                           \
-            for (size_t i = 0; i < nt; i++) hm = fabs(hg[i]) > hm ? fabs(hg[i]) : hm;           \
-        }                                                                                       \
+        int64_t s = 0, fend, next;                                                              \
+        double hm;                                                                              \
+        gcp_fo_free_begin(FREE_, x, y, z, ux, uy, uz, hg, nt, kmax, a, EMAG_, BMAG_, h, &fend,  \
+                          &next, &hm);                                                          \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             if (s == next)                                                                      \
@@ -509,15 +504,10 @@ typedef const double gcp_fo_ct_[GCP_FO_TILE]; /* a row of a tile's read-only buf
         }                                                                                       \
         /* untested steps up to fend (FREE_ as in GCP_FO_TILE_DEFINE_: 1, the               \
          * call's; 2, a stretch's, proved again at next, from u in UC) */                       \
-        int64_t s = 0, fend = 0, next = kmax;                                                   \
-        double hm = fabs(h);                                                                    \
-        if (FREE_ == 1 && gcp_fo_nr_cannot_stop(x, y, z, ux, uy, uz, nt, kmax, a, 0.0, BMAG_,   \
-                                                GCP_FO_REL_TB_))                                \
-            fend = kmax;                                                                        \
-        if (FREE_ == 2 && gcp_fo_free_ok(a, kmax)) {                                            \
-            next = 0;                                                                           \
-            for (size_t i = 0; i < nt; i++) hm = fabs(hg[i]) > hm ? fabs(hg[i]) : hm;           \
-        }                                                                                       \
+        int64_t s = 0, fend, next;                                                              \
+        double hm;                                                                              \
+        gcp_fo_free_begin(FREE_, x, y, z, ux, uy, uz, hg, nt, kmax, a, 0.0, BMAG_, h, &fend,    \
+                          &next, &hm);                                                          \
         for (; s < kmax; s++) {                                                                 \
             int32_t any = 0;                                                                    \
             int64_t nsp = 0;                                                                    \
