@@ -18,7 +18,7 @@
  * hash of the gyro tile's final x, u, sums and every record: the same hash
  * before and after a change of the gyro tile is the bit-identity check of
  * its output.
- *   make && make -s -C tests/bench BUILD=../../build build/bench/bench_gyro_tile
+ *   make && make -s -C tests/bench BUILD=../../build ../../build/bench/bench_gyro_tile
  *   taskset -c 0 build/bench/bench_gyro_tile [calls [reps]]
  * (defaults 20 calls, 7 reps; 2048 lanes). */
 #include <math.h>
