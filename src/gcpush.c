@@ -644,11 +644,11 @@ int main(int argc, char **argv)
     MPI_Allreduce(MPI_IN_PLACE, &unordered, 1, MPI_INT, MPI_MAX, comm);
     if (unordered) {
         if (me == 0) fprintf(stderr, "gcpush: out of memory for the list of chunks\n");
-        MPI_Abort(comm, EXIT_RUN_FAILED);
+        gcp_par_abort(comm, EXIT_RUN_FAILED);
     }
     if (gcp_par_counter_create(&ctx.counter, nitems, comm)) {
         if (me == 0) fprintf(stderr, "gcpush: MPI window creation failed\n");
-        MPI_Abort(comm, EXIT_RUN_FAILED);
+        gcp_par_abort(comm, EXIT_RUN_FAILED);
     }
     ctx.t0 = ctx.last_print = ctx.last_ckpt = wall_now();
     gcp_phase_mark("setup");
