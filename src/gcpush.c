@@ -462,6 +462,7 @@ int main(int argc, char **argv)
     gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
     gcp_par_local_defaults(); /* all ranks on this node: no network probing (README) */
     MPI_Init(&argc, &argv);
+    gcp_par_nodelay(); /* MPI_Finalize's messages to the launcher without a 40 ms stall (README) */
     catch_stop_signals();
     gcp_phase_mark("init");
     MPI_Comm comm = MPI_COMM_WORLD;

@@ -64,6 +64,10 @@ enum {
 typedef const char *(*gcp_par_getenv)(void *ctx, const char *name);
 unsigned gcp_par_local_defaults(void);
 unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *const *files);
+/* After MPI_Init: TCP_NODELAY on this process's TCP connections to this
+ * host (the PMIx server's), whose small one-way messages in MPI_Finalize
+ * otherwise wait out the server's delayed acknowledgement (transport.c). */
+void gcp_par_nodelay(void);
 /* MPI_Abort, after removing a singleton's private session directory
  * (GCP_PAR_SESSION), which MPI_Abort would leave: it exits without atexit. */
 void gcp_par_abort(MPI_Comm comm, int code);

@@ -92,12 +92,16 @@
  * mpirun's, made before any rank starts: README says what to do there. */
 #define _XOPEN_SOURCE 700 /* nftw; POSIX 2008 (mkdtemp) */
 #include <ctype.h>
+#include <dirent.h>
 #include <ftw.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 
 #include "par.h"
 
@@ -303,6 +307,56 @@ static int session_private(void)
     return 1;
 }
 #endif
+
+/* Whether the socket fd is a TCP connection to this host (127/8, ::1, or
+ * an IPv4-mapped 127/8). */
+static int loopback_tcp(int fd)
+{
+    int type;
+    socklen_t len = sizeof type;
+    if (getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &len) != 0 || type != SOCK_STREAM) return 0;
+    struct sockaddr_storage peer;
+    socklen_t plen = sizeof peer;
+    if (getpeername(fd, (struct sockaddr *)&peer, &plen) != 0) return 0;
+    if (peer.ss_family == AF_INET) {
+        const unsigned char *a = (const unsigned char *)&((const struct sockaddr_in *)&peer)->sin_addr;
+        return a[0] == 127;
+    }
+    if (peer.ss_family == AF_INET6) {
+        const struct in6_addr *a = &((const struct sockaddr_in6 *)&peer)->sin6_addr;
+        return IN6_IS_ADDR_LOOPBACK(a) || (IN6_IS_ADDR_V4MAPPED(a) && a->s6_addr[12] == 127);
+    }
+    return 0;
+}
+
+/* MPI_Finalize's wait for the launcher.  A rank under mpirun talks to its
+ * node's PMIx server (mpirun or orted) over TCP on the loopback (PMIx 4's
+ * ptl tcp; no option for TCP_NODELAY).  In MPI_Finalize the rank sends
+ * three event-handler deregistrations, which get no answer, then
+ * PMIx_Finalize's request, and waits for its acknowledgement: Nagle's
+ * algorithm holds each message after the first until the first is
+ * acknowledged, and the server, having nothing to send back, delays that
+ * acknowledgement by Linux's delayed-ACK timeout (40 ms).  strace of
+ * mpirun: the first deregistration read at t, the others and the finalize
+ * request together at t + 43 ms; every rank's PMIx_Finalize took 0.045 s
+ * of wall for 0.0013 s of CPU.  With TCP_NODELAY on the rank's side each
+ * message leaves when written: PMIx_Finalize 0.006-0.019 s.  TCP_NODELAY
+ * changes when segments are sent, never what arrives or in which order;
+ * only connections to this host are touched (never a network transport's). */
+void gcp_par_nodelay(void)
+{
+    DIR *d = opendir("/proc/self/fd");
+    if (!d) return;
+    const int self = dirfd(d);
+    for (struct dirent *e; (e = readdir(d));) {
+        char *end;
+        const long fd = strtol(e->d_name, &end, 10);
+        if (*end || end == e->d_name || fd == self || fd < 0 || !loopback_tcp((int)fd)) continue;
+        const int one = 1;
+        (void)setsockopt((int)fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
+    closedir(d);
+}
 
 void gcp_par_abort(MPI_Comm comm, int code)
 {

@@ -10,6 +10,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
+
 #include <criterion/criterion.h>
 
 #include "par/par.h"
@@ -182,4 +187,38 @@ Test(par_defaults, parameter_files)
     cr_assert_eq(decide_file("coll = ^han,adapt\n"), GCP_PAR_ONE_NODE);
     cr_assert_eq(decide_file("osc = rdma\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OSC);
     cr_assert_eq(decide_file("mpi_yield_when_idle = 0\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_YIELD);
+}
+
+/* gcp_par_nodelay: a TCP connection to this host (the PMIx server's, in a
+ * rank) gets TCP_NODELAY, so that MPI_Finalize's one-way messages do not
+ * wait out the server's delayed acknowledgement; a socket that is not
+ * connected is left as it is. */
+Test(par_defaults, nodelay_loopback)
+{
+    const int lis = socket(AF_INET, SOCK_STREAM, 0);
+    cr_assert_geq(lis, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = 0};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t alen = sizeof a;
+    cr_assert_eq(bind(lis, (struct sockaddr *)&a, sizeof a), 0);
+    cr_assert_eq(listen(lis, 1), 0);
+    cr_assert_eq(getsockname(lis, (struct sockaddr *)&a, &alen), 0);
+    const int cli = socket(AF_INET, SOCK_STREAM, 0);
+    cr_assert_eq(connect(cli, (struct sockaddr *)&a, sizeof a), 0);
+    const int srv = accept(lis, NULL, NULL);
+    cr_assert_geq(srv, 0);
+    int v = -1;
+    socklen_t len = sizeof v;
+    cr_assert_eq(getsockopt(cli, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_eq(v, 0, "a new connection has Nagle's algorithm on");
+    gcp_par_nodelay();
+    cr_assert_eq(getsockopt(cli, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_neq(v, 0, "the loopback connection did not get TCP_NODELAY");
+    cr_assert_eq(getsockopt(srv, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_neq(v, 0, "the accepted loopback connection did not get TCP_NODELAY");
+    cr_assert_eq(getsockopt(lis, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_eq(v, 0, "the listening socket (no peer) was changed");
+    close(srv);
+    close(cli);
+    close(lis);
 }
