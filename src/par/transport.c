@@ -71,7 +71,9 @@
  * traffic is a few collectives and the shared counter (one-sided atomics
  * in shared memory, no polling), so the latency yielding costs on an idle
  * node does not show.  Tried and dropped: pmix_base_async_modex (no fence
- * in MPI_Init; MPI_Init then failed now and then).
+ * in MPI_Init; MPI_Init then failed now and then); async_mpi_finalize
+ * (no fence in MPI_Finalize, experimental: the fence is 1-4 ms of a rank's
+ * exit, whose wait is PMIx_Finalize's: gcp_par_nodelay).
  *
  * A singleton's session directory.  Open MPI 4 keeps every job's files in
  * one directory per user and node, $TMPDIR/ompi.HOST.UID, created by the
@@ -82,13 +84,14 @@
  * another starts (MPI_Init: mkdir ENOENT or EEXIST) or opens its output
  * (MPI-IO's shared file pointer: "mca_sharedfp_sm_file_open: Error, unable
  * to open file for mmap: .../jf.0/1/OUT.tmp-PID_cid-4-PID.sm", then the
- * output cannot be created): 4 of 240 singleton runs failed, 6 at a time
- * beside a loop of 2-rank mpirun jobs.  A singleton whose user chose no
- * session directory (orte_tmpdir_base, ...) is therefore given a private
- * base, mkdtemp in TMPDIR (else TEMP, TMP, /tmp: where Open MPI would have
- * looked), through OMPI_MCA_orte_tmpdir_base; it is removed at exit, after
- * MPI_Finalize (atexit), and before MPI_Abort (gcp_par_abort), which ends
- * the process without atexit.  Under mpirun the session directory is
+ * output cannot be created): 9 of 600 singleton runs failed, 6 at a time
+ * beside a loop of 2-rank mpirun jobs; 0 of 600 with the private base.  A
+ * singleton whose user chose no session directory (orte_tmpdir_base, ...)
+ * is therefore given a private base, mkdtemp in TMPDIR (else TEMP, TMP,
+ * /tmp: where Open MPI would have looked), through
+ * OMPI_MCA_orte_tmpdir_base; it is removed at exit, after MPI_Finalize
+ * (atexit), and before MPI_Abort (gcp_par_abort), which ends the process
+ * without atexit.  Under mpirun the session directory is
  * mpirun's, made before any rank starts: README says what to do there. */
 #define _XOPEN_SOURCE 700 /* nftw; POSIX 2008 (mkdtemp) */
 #include <ctype.h>
@@ -97,6 +100,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -219,8 +223,14 @@ unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *c
         int any = 0;
         for (size_t k = 0; k < sizeof launched / sizeof launched[0]; k++) any |= get(ctx, launched[k]) != NULL;
         if (!any) {
-            want = GCP_PAR_ONE_NODE | GCP_PAR_SESSION |
-                   (get(ctx, "OMPI_MCA_ess_singleton_isolated") ? 0 : GCP_PAR_ISOLATED);
+            const char *iso = get(ctx, "OMPI_MCA_ess_singleton_isolated");
+            want = GCP_PAR_ONE_NODE | GCP_PAR_SESSION | (iso ? 0 : GCP_PAR_ISOLATED);
+            /* a singleton the user lets fork its helper daemon: the daemon
+             * inherits the environment, and the application's run-time
+             * components are not a daemon's (orted: "orte_state_base_select
+             * failed", MPI_Init failed) */
+            if (iso && strcmp(iso, "1") != 0 && strcasecmp(iso, "true") != 0 && strcasecmp(iso, "yes") != 0)
+                want &= ~(unsigned)GCP_PAR_RTE;
             /* a session directory of the user's own (Open MPI 4's names;
              * prte_tmpdir_base: Open MPI 5's launcher) */
             static const char *const sdir[] = {"orte_tmpdir_base", "orte_local_tmpdir_base",

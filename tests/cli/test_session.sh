@@ -7,8 +7,8 @@
 # The race itself is timing; what is checked here is deterministic:
 #   - a run with Open MPI's shared directory made unusable (a file where
 #     ompi.HOST.UID would be: MPI_Init failed on it) works, and a run leaves
-#     nothing in TMPDIR: after a normal exit, an error exit, and MPI_Abort
-#     (which exits without atexit);
+#     nothing in TMPDIR: after a normal exit (also with the helper daemon),
+#     an error exit, and MPI_Abort (which exits without atexit);
 #   - a session directory of the user's own (OMPI_MCA_orte_tmpdir_base) is
 #     used as it is: there the same obstacle still stops Open MPI.
 set -u
@@ -53,6 +53,13 @@ want=$(left t2)
 TMPDIR=$TMP/t2 "$GCPUSH" --quiet --force s.run > out.txt 2>&1 ||
     die "a singleton run failed with Open MPI's shared session directory unusable: $(head -5 out.txt)"
 [ "$(left t2)" = "$want" ] || die "a singleton run left in TMPDIR: $(left t2)"
+
+# a singleton that keeps its helper daemon (the user's ess_singleton_isolated=0):
+# the daemon shares the private directory and inherits none of an application
+# process's run-time choices (with them MPI_Init failed)
+OMPI_MCA_ess_singleton_isolated=0 TMPDIR=$TMP/t1 "$GCPUSH" --quiet --force s.run > out.txt 2>&1 ||
+    die "a singleton run with its helper daemon failed: $(grep -m3 -i fail out.txt)"
+[ -z "$(left t1)" ] || die "a singleton run with its helper daemon left in TMPDIR: $(left t1)"
 
 # an error exit after MPI_Init (the output exists, no --force): exit 2, nothing left
 TMPDIR=$TMP/t1 "$GCPUSH" --quiet s.run > out.txt 2>&1

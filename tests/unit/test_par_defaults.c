@@ -52,7 +52,11 @@ Test(par_defaults, user_choice_kept)
                          "OMPI_MCA_pml", "ucx", NULL};
     cr_assert_eq(decide(env), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OB1);
     const char *single[] = {"OMPI_MCA_ess_singleton_isolated", "0", NULL};
-    cr_assert_eq(decide(single), GCP_PAR_ONE_NODE | GCP_PAR_SESSION); /* the daemon the user asked for stays */
+    /* the daemon the user asked for stays, and inherits no application
+     * process's run-time components (its own are a daemon's) */
+    cr_assert_eq(decide(single), (GCP_PAR_ONE_NODE | GCP_PAR_SESSION) & ~(unsigned)GCP_PAR_RTE);
+    const char *isolated[] = {"OMPI_MCA_ess_singleton_isolated", "true", NULL};
+    cr_assert_eq(decide(isolated), GCP_PAR_ONE_NODE | GCP_PAR_SESSION);
     /* each choice of the user's removes only its own default */
     const char *btl[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
                          "OMPI_MCA_btl", "self,tcp", "OMPI_MCA_osc", "rdma", NULL};
