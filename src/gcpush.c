@@ -462,6 +462,7 @@ int main(int argc, char **argv)
     gcp_phase_start(); /* GCPUSH_TIMING=1: a line per rank on stderr at the end */
     gcp_par_local_defaults(); /* all ranks on this node: no network probing (README) */
     MPI_Init(&argc, &argv);
+    gcp_par_nodelay(); /* MPI_Finalize's messages to the launcher without a 40 ms stall (README) */
     catch_stop_signals();
     gcp_phase_mark("init");
     MPI_Comm comm = MPI_COMM_WORLD;
@@ -644,11 +645,11 @@ int main(int argc, char **argv)
     MPI_Allreduce(MPI_IN_PLACE, &unordered, 1, MPI_INT, MPI_MAX, comm);
     if (unordered) {
         if (me == 0) fprintf(stderr, "gcpush: out of memory for the list of chunks\n");
-        MPI_Abort(comm, EXIT_RUN_FAILED);
+        gcp_par_abort(comm, EXIT_RUN_FAILED);
     }
     if (gcp_par_counter_create(&ctx.counter, nitems, comm)) {
         if (me == 0) fprintf(stderr, "gcpush: MPI window creation failed\n");
-        MPI_Abort(comm, EXIT_RUN_FAILED);
+        gcp_par_abort(comm, EXIT_RUN_FAILED);
     }
     ctx.t0 = ctx.last_print = ctx.last_ckpt = wall_now();
     gcp_phase_mark("setup");

@@ -32,7 +32,8 @@ void gcp_par_counter_free(struct gcp_par_counter *c);
  * uses, no hwloc plugins (PCI, OpenGL, OpenCL devices, libxml2), a yield
  * of the core while waiting in MPI, the run-time components an application
  * process selects anyway (GCP_PAR_RTE) and, in a
- * process started without mpirun, for no helper daemon -- each only where
+ * process started without mpirun, for no helper daemon and a private
+ * session directory (GCP_PAR_SESSION) -- each only where
  * neither the environment nor Open MPI's parameter files choose already,
  * and never under a launcher that does not say all ranks share the node.
  * Returns what it set (GCP_PAR_* bits); nothing with another MPI.
@@ -53,6 +54,9 @@ enum {
     GCP_PAR_SCHIZO = 512,  /* schizo = orte */
     GCP_PAR_SHMEM = 1024,  /* shmem = mmap */
     GCP_PAR_REACHABLE = 2048, /* reachable = weighted (only TCP asks it; with GCP_PAR_BTL only) */
+    /* a singleton whose user chose no session directory: a private one,
+     * removed at exit (transport.c; gcp_par_abort instead of MPI_Abort) */
+    GCP_PAR_SESSION = 4096,
     GCP_PAR_RTE = GCP_PAR_STATE | GCP_PAR_ERRMGR | GCP_PAR_SCHIZO | GCP_PAR_SHMEM | GCP_PAR_REACHABLE,
     GCP_PAR_ONE_NODE = GCP_PAR_OB1 | GCP_PAR_BTL | GCP_PAR_COLL | GCP_PAR_OSC | GCP_PAR_HWLOC |
                        GCP_PAR_YIELD | GCP_PAR_RTE
@@ -60,6 +64,13 @@ enum {
 typedef const char *(*gcp_par_getenv)(void *ctx, const char *name);
 unsigned gcp_par_local_defaults(void);
 unsigned gcp_par_local_defaults_for(gcp_par_getenv get, void *ctx, const char *const *files);
+/* After MPI_Init: TCP_NODELAY on this process's TCP connections to this
+ * host (the PMIx server's), whose small one-way messages in MPI_Finalize
+ * otherwise wait out the server's delayed acknowledgement (transport.c). */
+void gcp_par_nodelay(void);
+/* MPI_Abort, after removing a singleton's private session directory
+ * (GCP_PAR_SESSION), which MPI_Abort would leave: it exits without atexit. */
+void gcp_par_abort(MPI_Comm comm, int code);
 
 /* Per-rank phase timing, on only with GCPUSH_TIMING=1 in the environment
  * (phases.c); every call is a no-op otherwise.  gcp_phase_start first

@@ -10,6 +10,11 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
+
 #include <criterion/criterion.h>
 
 #include "par/par.h"
@@ -47,7 +52,11 @@ Test(par_defaults, user_choice_kept)
                          "OMPI_MCA_pml", "ucx", NULL};
     cr_assert_eq(decide(env), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OB1);
     const char *single[] = {"OMPI_MCA_ess_singleton_isolated", "0", NULL};
-    cr_assert_eq(decide(single), GCP_PAR_ONE_NODE); /* the daemon the user asked for stays */
+    /* the daemon the user asked for stays, and inherits no application
+     * process's run-time components (its own are a daemon's) */
+    cr_assert_eq(decide(single), (GCP_PAR_ONE_NODE | GCP_PAR_SESSION) & ~(unsigned)GCP_PAR_RTE);
+    const char *isolated[] = {"OMPI_MCA_ess_singleton_isolated", "true", NULL};
+    cr_assert_eq(decide(isolated), GCP_PAR_ONE_NODE | GCP_PAR_SESSION);
     /* each choice of the user's removes only its own default */
     const char *btl[] = {"OMPI_COMM_WORLD_SIZE", "2", "OMPI_COMM_WORLD_LOCAL_SIZE", "2",
                          "OMPI_MCA_btl", "self,tcp", "OMPI_MCA_osc", "rdma", NULL};
@@ -91,7 +100,8 @@ Test(par_defaults, runtime_components)
                            wlm[k], "7", NULL};
         cr_assert_eq(decide(e), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_SCHIZO, "%s", wlm[k]);
         const char *alone[] = {wlm[k], "7", NULL}; /* a singleton in an allocation */
-        cr_assert_eq(decide(alone), (GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED) & ~(unsigned)GCP_PAR_SCHIZO,
+        cr_assert_eq(decide(alone),
+                     (GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED | GCP_PAR_SESSION) & ~(unsigned)GCP_PAR_SCHIZO,
                      "%s", wlm[k]);
     }
     /* a parameter file's choice counts as the environment's */
@@ -102,11 +112,47 @@ Test(par_defaults, runtime_components)
 Test(par_defaults, singleton_and_other_launchers)
 {
     const char *none[] = {NULL};
-    cr_assert_eq(decide(none), GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED);
+    cr_assert_eq(decide(none), GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED | GCP_PAR_SESSION);
     const char *srun[] = {"PMIX_RANK", "0", "SLURM_PROCID", "0", NULL};
     cr_assert_eq(decide(srun), 0);
     const char *hydra[] = {"PMI_RANK", "3", NULL};
     cr_assert_eq(decide(hydra), 0);
+}
+
+/* A singleton's private session directory (concurrent singletons shared
+ * Open MPI's and removed it under each other): only where the user chose
+ * no session directory, in the environment or a parameter file, and never
+ * under mpirun, whose directory it is. */
+Test(par_defaults, session_dir)
+{
+    static const char *const var[] = {"OMPI_MCA_orte_tmpdir_base", "OMPI_MCA_orte_local_tmpdir_base",
+                                      "OMPI_MCA_orte_top_session_dir", "OMPI_MCA_orte_jobfam_session_dir",
+                                      "OMPI_MCA_prte_tmpdir_base", "PRTE_MCA_prte_tmpdir_base"};
+    for (size_t k = 0; k < sizeof var / sizeof var[0]; k++) {
+        const char *e[] = {var[k], "/scratch", NULL};
+        cr_assert_eq(decide(e), GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED, "%s", var[k]);
+    }
+    const char *mpirun[] = {"OMPI_COMM_WORLD_SIZE", "1", "OMPI_COMM_WORLD_LOCAL_SIZE", "1",
+                            "OMPI_COMM_WORLD_RANK", "0", NULL};
+    cr_assert_eq(decide(mpirun) & GCP_PAR_SESSION, 0);
+    const char *none[] = {NULL};
+    const char *const conf[] = {"/nonexistent/mca-params.conf", NULL};
+    cr_assert_eq(gcp_par_local_defaults_for(lookup, (void *)none, conf) & GCP_PAR_SESSION,
+                 GCP_PAR_SESSION);
+    char path[] = "/tmp/gcp_par_session_XXXXXX";
+    const int fd = mkstemp(path);
+    cr_assert_geq(fd, 0);
+    FILE *fp = fdopen(fd, "w");
+    fputs("orte_tmpdir_base_x = 1\n", fp); /* another parameter: not a choice */
+    fflush(fp);
+    const char *const files[] = {path, NULL};
+    const unsigned other = gcp_par_local_defaults_for(lookup, (void *)none, files);
+    fputs("orte_tmpdir_base = /scratch/me\n", fp);
+    fclose(fp);
+    const unsigned mine = gcp_par_local_defaults_for(lookup, (void *)none, files);
+    remove(path);
+    cr_assert_eq(other & GCP_PAR_SESSION, GCP_PAR_SESSION);
+    cr_assert_eq(mine, GCP_PAR_ONE_NODE | GCP_PAR_ISOLATED);
 }
 
 /* a parameter file's pml line: a choice, or an exclusion that keeps ob1 */
@@ -145,4 +191,38 @@ Test(par_defaults, parameter_files)
     cr_assert_eq(decide_file("coll = ^han,adapt\n"), GCP_PAR_ONE_NODE);
     cr_assert_eq(decide_file("osc = rdma\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_OSC);
     cr_assert_eq(decide_file("mpi_yield_when_idle = 0\n"), GCP_PAR_ONE_NODE & ~(unsigned)GCP_PAR_YIELD);
+}
+
+/* gcp_par_nodelay: a TCP connection to this host (the PMIx server's, in a
+ * rank) gets TCP_NODELAY, so that MPI_Finalize's one-way messages do not
+ * wait out the server's delayed acknowledgement; a socket that is not
+ * connected is left as it is. */
+Test(par_defaults, nodelay_loopback)
+{
+    const int lis = socket(AF_INET, SOCK_STREAM, 0);
+    cr_assert_geq(lis, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = 0};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t alen = sizeof a;
+    cr_assert_eq(bind(lis, (struct sockaddr *)&a, sizeof a), 0);
+    cr_assert_eq(listen(lis, 1), 0);
+    cr_assert_eq(getsockname(lis, (struct sockaddr *)&a, &alen), 0);
+    const int cli = socket(AF_INET, SOCK_STREAM, 0);
+    cr_assert_eq(connect(cli, (struct sockaddr *)&a, sizeof a), 0);
+    const int srv = accept(lis, NULL, NULL);
+    cr_assert_geq(srv, 0);
+    int v = -1;
+    socklen_t len = sizeof v;
+    cr_assert_eq(getsockopt(cli, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_eq(v, 0, "a new connection has Nagle's algorithm on");
+    gcp_par_nodelay();
+    cr_assert_eq(getsockopt(cli, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_neq(v, 0, "the loopback connection did not get TCP_NODELAY");
+    cr_assert_eq(getsockopt(srv, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_neq(v, 0, "the accepted loopback connection did not get TCP_NODELAY");
+    cr_assert_eq(getsockopt(lis, IPPROTO_TCP, TCP_NODELAY, &v, &len), 0);
+    cr_assert_eq(v, 0, "the listening socket (no peer) was changed");
+    close(srv);
+    close(cli);
+    close(lis);
 }
