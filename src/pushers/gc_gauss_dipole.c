@@ -91,7 +91,15 @@
  * them (no gather) until the lanes are renumbered, and the scalar point
  * loop and the gather, ~40% of the push, are gone (issue 12, 2048 protons
  * of tests/bench/observer.sh: push with `mu K L` 0.112 -> 0.089 s,
- * medians of 9 alternating; bit-identical). */
+ * medians of 9 alternating; bit-identical).  In one tile (the engine's
+ * chunks) the lane states are then written back only where something reads
+ * or moves the lane storage, and the stop test on the written X lets the
+ * evolve layer skip its classification (dgl_steps): 0.081 -> 0.073 s,
+ * over a bare push of 0.051 s (9 alternating pairs on the loaded machine,
+ * medians; bit-identical).  The one-step calls now cost about what the
+ * bare push does (`events = loss` only, which samples every step but keeps
+ * no stream: 0.056 s against 0.055); what is left of the observer's cost
+ * is its own work a step (invariants_quiet.c) and per event. */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
@@ -130,6 +138,11 @@ struct dgl_ctx {
      * the next call runs them without the gather, which with an observer
      * every step (one step a call) cost a tenth of the push */
     int fresh;
+    /* 1: the lane storage is behind the tiles (set only with fresh and one
+     * tile): dgl_steps wrote the block but not the lane states back, as no
+     * lane stops and nothing reads or moves the storage before the next
+     * call (dgl_sync writes them where something may) */
+    int dirty;
 };
 
 /* The step's end for lane i (dgl_finish formed it), and the history
@@ -214,44 +227,70 @@ static void dgl_gather(struct dgl_tile *t, const unsigned char *lanes, size_t i0
 /* X, p_par of the tile's lanes into the block (dgl_point), one SoA loop
  * that vectorises (dgl_sincos's polynomial and quadrant select included):
  * with an observer every step (issue 12: a sample per step, so one step a
- * call) the scalar form of this loop was a third of the push. */
-static void dgl_points(const struct dgl_args *restrict A, const struct dgl_tile *restrict t,
-                       double *restrict x, double *restrict y, double *restrict z,
-                       double *restrict pp, int32_t *restrict fs, size_t nt)
+ * call) the scalar form of this loop was a third of the push.  Returns
+ * whether any lane stops by gcp_block_classify's test on the written X,
+ * p_par (mu: the lanes'), the field's verdicts fs being 0: where none
+ * does, the evolve layer need not classify (the `steps` contract's
+ * *stops = 0; the tile's own test is on (s, L), not on the written X). */
+static int32_t dgl_points(const struct dgl_args *restrict A, const struct dgl_tile *restrict t,
+                          double *restrict x, double *restrict y, double *restrict z,
+                          double *restrict pp, const double *restrict mu, int32_t *restrict fs,
+                          size_t nt)
 {
     const struct dgl_args a = *A;
     const double *restrict ts = t->s, *restrict tq = t->Q, *restrict tp = t->phip;
     const double *restrict tl = t->L, *restrict tw = t->w;
+    int32_t any = 0;
     for (size_t i = 0; i < nt; i++) {
         double X[3], p;
         dgl_point(&a, ts[i], tq[i], tp[i], tl[i], tw[i], X, &p);
         x[i] = X[0], y[i] = X[1], z[i] = X[2], pp[i] = p;
         fs[i] = 0;
+        const double r2 = X[0] * X[0] + X[1] * X[1] + X[2] * X[2];
+        any |= gcp_lane_stops(r2, p * p + mu[i], X[2], a.rin2, a.rout2, a.zmax);
     }
+    return any;
 }
 
-/* Back to the lane storage, and X, p_par of the lanes into the block
- * (dgl_point).  keep_failed: lanes whose last step failed are left as
- * they were (the one-step form: they keep the state of the start of the
- * step); the `steps` form writes every lane (the tile holds the state of
- * the steps it took, before the step that failed). */
-static void dgl_scatter(const struct dgl_args *A, const struct dgl_tile *t, unsigned char *lanes,
-                        struct gcp_block *b, size_t i0, size_t nt, int keep_failed)
+/* The lane states of the tile back to the lane storage (all of them: the
+ * `steps` form, whose tile holds the state of the steps it took). */
+static void dgl_store(const struct dgl_tile *t, unsigned char *lanes, size_t i0, size_t nt)
 {
     for (size_t i = 0; i < nt; i++) {
-        if (keep_failed && t->fail[i] != 0.0) continue; /* nothing of a failed step is kept */
         struct dgl_lane *l = (struct dgl_lane *)(lanes + (i0 + i) * sizeof *l);
         l->s = t->s[i], l->Q = t->Q[i], l->phip = t->phip[i], l->have = t->have[i];
         for (int n = 0; n <= GL_SMAX; n++) l->hist[n][0] = t->hist[n][0][i], l->hist[n][1] = t->hist[n][1][i];
-        if (!keep_failed) continue;
+    }
+}
+
+/* The lane storage brought up to the tiles where dgl_steps left it behind
+ * (c->dirty: one tile, holding the lanes): before anything reads or moves
+ * it. */
+static void dgl_sync(struct dgl_ctx *c, unsigned char *lanes, size_t n)
+{
+    if (!c->dirty) return;
+    dgl_store(&c->tiles[0], lanes, 0, n);
+    c->dirty = 0;
+}
+
+/* The one-step form's end (dgl_step_lanes): back to the lane storage, and
+ * X, p_par of the lanes into the block (dgl_point), but for lanes whose
+ * step failed, which are left as they were (nothing of a failed step is
+ * kept: they keep the state of the start of the step). */
+static void dgl_scatter_kept(const struct dgl_args *A, const struct dgl_tile *t,
+                             unsigned char *lanes, struct gcp_block *b, size_t i0, size_t nt)
+{
+    for (size_t i = 0; i < nt; i++) {
+        if (t->fail[i] != 0.0) continue;
+        struct dgl_lane *l = (struct dgl_lane *)(lanes + (i0 + i) * sizeof *l);
+        l->s = t->s[i], l->Q = t->Q[i], l->phip = t->phip[i], l->have = t->have[i];
+        for (int n = 0; n <= GL_SMAX; n++) l->hist[n][0] = t->hist[n][0][i], l->hist[n][1] = t->hist[n][1][i];
         const size_t j = i0 + i;
         double X[3], pp;
         dgl_point(A, t->s[i], t->Q[i], t->phip[i], t->L[i], t->w[i], X, &pp);
         b->x[j] = X[0], b->y[j] = X[1], b->z[j] = X[2], b->ppar[j] = pp;
         b->fstatus[j] = 0;
     }
-    if (!keep_failed)
-        dgl_points(A, t, b->x + i0, b->y + i0, b->z + i0, b->ppar + i0, b->fstatus + i0, nt);
 }
 
 /* The lift of block lane i (the evolve layer's init): dgl_lift_of, with
@@ -281,14 +320,28 @@ static int dgl_init(const struct gcp_evolve *ev, void *vctx, const struct gcp_bl
  * Each tile keeps its lanes in its own tile struct and nothing is written
  * back before every tile has run, so the lane storage still holds the
  * start of the call: a tile that ran further than kd is gathered again
- * from it and run to kd (no copy of the block for the rare restore), and
- * kd = 0 leaves the block untouched. */
+ * from it and run to kd (no copy of the block for the restore, which
+ * multi-tile blocks only need), and kd = 0 leaves the block untouched.
+ *
+ * One tile (the engine's chunks of <= 64 lanes) needs no restore: when it
+ * takes no step its lane states are still those of the start of the call.
+ * Its states then go back to the lane storage only where something may
+ * read or move the storage before the next call: kd = 0 (the start check
+ * and dgl_step_lanes run), or a lane that stops by the classification's
+ * test on the written X (the evolve layer classifies and retires, moving
+ * the storage).  Else *stops = 0 and the storage is left behind (dirty).
+ * Why: with an observer every step (one step a call) the write-back of
+ * each lane's 10 doubles into the lane storage at every step was ~7% of
+ * the push, the classification pass ~1.5% (perf, tests/bench/observer.sh's
+ * gc-gl4 scene). */
 static int64_t dgl_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_block *b, size_t n,
                          double t, double h, int64_t kmax, int32_t *stops, unsigned char *lanes)
 {
     (void)ev, (void)t, (void)h;
     struct dgl_ctx *c = vctx;
     *stops = 1; /* the evolve layer classifies after the steps */
+    const int one = n <= DGL_TILE;
+    if (!one) dgl_sync(c, lanes, n); /* (never dirty: set for one tile only) */
     int64_t kd = kmax;
     size_t tile = 0;
     for (size_t i0 = 0; i0 < n; i0 += DGL_TILE, tile++) {
@@ -298,8 +351,14 @@ static int64_t dgl_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
         c->done[tile] = k;
         if (k < kd) kd = k;
     }
-    c->fresh = 0; /* the tiles ran: the lane storage holds the start of the call */
-    if (kd == 0) return 0;
+    if (kd == 0) {
+        /* one tile: its lane states are the call's start, which the
+         * storage gets before the start check and dgl_step_lanes */
+        if (one) dgl_sync(c, lanes, n);
+        c->fresh = 0;
+        return 0;
+    }
+    int32_t stop = 0;
     tile = 0;
     for (size_t i0 = 0; i0 < n; i0 += DGL_TILE, tile++) {
         const size_t nt = n - i0 < DGL_TILE ? n - i0 : DGL_TILE;
@@ -307,9 +366,16 @@ static int64_t dgl_steps(const struct gcp_evolve *ev, void *vctx, struct gcp_blo
             dgl_gather(&c->tiles[tile], lanes, i0, nt);
             dgl_run(&c->A, &c->tiles[tile], nt, kd, 0);
         }
-        dgl_scatter(&c->A, &c->tiles[tile], lanes, b, i0, nt, 0);
+        stop |= dgl_points(&c->A, &c->tiles[tile], b->x + i0, b->y + i0, b->z + i0,
+                           b->ppar + i0, b->mu + i0, b->fstatus + i0, nt);
+        if (!one) dgl_store(&c->tiles[tile], lanes, i0, nt);
     }
     c->fresh = 1;
+    if (one) {
+        c->dirty = 1;
+        if (stop) dgl_sync(c, lanes, n); /* the evolve layer classifies and retires */
+        else *stops = 0;
+    }
     return kd;
 }
 
@@ -322,13 +388,14 @@ static int32_t dgl_step_lanes(const struct gcp_evolve *ev, void *vctx, struct gc
     (void)ev, (void)t, (void)h;
     struct dgl_ctx *c = vctx;
     struct dgl_tile *tl = &c->tiles[0];
+    dgl_sync(c, lanes, n); /* (dgl_steps returned 0 and synced: a guard) */
     c->fresh = 0; /* tile 0 is its scratch */
     int32_t failed = 0;
     for (size_t i0 = 0; i0 < n; i0 += DGL_TILE) {
         const size_t nt = n - i0 < DGL_TILE ? n - i0 : DGL_TILE;
         dgl_gather(tl, lanes, i0, nt);
         dgl_run(&c->A, tl, nt, 1, 1);
-        dgl_scatter(&c->A, tl, lanes, b, i0, nt, 1);
+        dgl_scatter_kept(&c->A, tl, lanes, b, i0, nt);
         for (size_t i = 0; i < nt; i++)
             if (tl->fail[i] != 0.0) {
                 b->status[i0 + i] = gcp_lane_fail(

@@ -1,5 +1,6 @@
-/* Private to gc_gauss.c and gc_sundman.c: the Gauss-Legendre collocation
- * core of the symplectic guiding-centre methods (issue 11). */
+/* Private to gc_gauss*.c and gc_sundman*.c: the Gauss-Legendre collocation
+ * core of the symplectic guiding-centre methods (issue 11); the solvers in
+ * gc_gauss.c, the methods gc-gl2 / gc-gl4 around them in gc_gauss_pusher.c. */
 #ifndef GCPUSH_GC_GAUSS_PRIV_H
 #define GCPUSH_GC_GAUSS_PRIV_H
 

@@ -86,3 +86,14 @@ Test(gc_dipole_line, slicing_leaves_the_numbers, .timeout = 120)
     gc_sl_check(&gcp_pusher_gc_gl2, 3000, 0);
     gc_sl_check(&gcp_pusher_gc_gl4, 3000, 0);
 }
+
+/* The same in one tile (64 lanes, an engine's chunk), where the pusher
+ * leaves its lane storage behind the tile while no lane stops and writes
+ * it back only before the start check or a retirement (gc_gauss_dipole.c
+ * dgl_steps): lanes stop both ways (precipitated after a step,
+ * non-adiabatic at a step's start), sampled every step and every 7. */
+Test(gc_dipole_line, slicing_leaves_the_numbers_in_one_tile, .timeout = 120)
+{
+    gc_sl_check_n(&gcp_pusher_gc_gl2, 3000, 0, 64);
+    gc_sl_check_n(&gcp_pusher_gc_gl4, 3000, 0, 64);
+}
