@@ -102,6 +102,23 @@ static void events_release(void *e, int64_t cap, size_t sz)
 }
 #endif
 
+/* The lines of the row EV_AHEAD pushes on, asked for now (for writing):
+ * the storage is fresh memory that no cache holds (the kernel zeroes a
+ * new page with stores that bypass them), and a row's stores otherwise
+ * wait for its lines from memory, one row at a time (the pushes are
+ * hundreds of ns apart).  A prefetch into a page not yet faulted in is
+ * dropped, so the first rows of each new page still wait.  Measured
+ * (rdtsc around the observer's pushes, gc-rk4 scene of
+ * tests/bench/observer.sh, 610k rows, on the loaded 2-core machine, 6 runs
+ * of each binary interleaved): 0.09-0.31 s -> 0.02-0.05 s, mostly; the
+ * push's CPU time did not move beyond that machine's noise. */
+#define EV_AHEAD 4
+static inline void rows_ahead(const void *row, size_t sz)
+{
+    const char *p = row;
+    for (size_t off = 0; off < sz; off += 64) __builtin_prefetch(p + off, 1, 3);
+}
+
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
     if (gcp_event_scalar(e->kind)) {
@@ -113,6 +130,7 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
             ev->scap = cap;
         }
         ev->s[ev->ns++] = (struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]};
+        if (ev->ns + EV_AHEAD < ev->scap) rows_ahead(&ev->s[ev->ns + EV_AHEAD], sizeof *ev->s);
         return 0;
     }
     if (ev->n == ev->cap) {
@@ -123,6 +141,7 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
         ev->cap = cap;
     }
     ev->e[ev->n++] = *e;
+    if (ev->n + EV_AHEAD < ev->cap) rows_ahead(&ev->e[ev->n + EV_AHEAD], sizeof *ev->e + 63);
     return 0;
 }
 
