@@ -13,6 +13,7 @@
 
 #include "gcpush/error.h"
 #include "gcpush/invariants.h"
+#include "invariants_priv.h"
 
 /* Event storage of cap events, the first n kept from old.  A run with
  * invariants asked keeps ~1e5-1e6 events (a mu row per half-bounce, 32
@@ -119,20 +120,25 @@ static inline void rows_ahead(const void *row, size_t sz)
     for (size_t off = 0; off < sz; off += 64) __builtin_prefetch(p + off, 1, 3);
 }
 
+int gcp_events_push_scalar(struct gcp_events *ev, const struct gcp_scalar_event *e)
+{
+    if (ev->ns == ev->scap) {
+        const int64_t cap = ev->scap ? 2 * ev->scap : 256;
+        void *p = events_grow(ev->s, ev->ns, ev->scap, cap, sizeof *ev->s);
+        if (!p) return GCP_ERR_NOMEM;
+        ev->s = p;
+        ev->scap = cap;
+    }
+    ev->s[ev->ns++] = *e;
+    if (ev->ns + EV_AHEAD < ev->scap) rows_ahead(&ev->s[ev->ns + EV_AHEAD], sizeof *ev->s);
+    return 0;
+}
+
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
-    if (gcp_event_scalar(e->kind)) {
-        if (ev->ns == ev->scap) {
-            const int64_t cap = ev->scap ? 2 * ev->scap : 256;
-            void *p = events_grow(ev->s, ev->ns, ev->scap, cap, sizeof *ev->s);
-            if (!p) return GCP_ERR_NOMEM;
-            ev->s = p;
-            ev->scap = cap;
-        }
-        ev->s[ev->ns++] = (struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]};
-        if (ev->ns + EV_AHEAD < ev->scap) rows_ahead(&ev->s[ev->ns + EV_AHEAD], sizeof *ev->s);
-        return 0;
-    }
+    if (gcp_event_scalar(e->kind))
+        return gcp_events_push_scalar(
+            ev, &(struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]});
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
         void *p = events_grow(ev->e, ev->n, ev->cap, cap, sizeof *ev->e);
