@@ -54,6 +54,14 @@ void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event
     if (gcp_events_push(o->out, e)) o->nomem = 1;
 }
 
+void gcp_obs_emit_scalar(struct gcp_observer *o, const struct lane *L, int64_t id, int32_t kind,
+                         double t, double v)
+{
+    const struct gcp_scalar_event e = {.id = id, .kind = kind, .status = L ? L->mode : 0, .t = t,
+                                       .v = v};
+    if (gcp_events_push_scalar(o->out, &e)) o->nomem = 1;
+}
+
 double gcp_observer_reference_B0(const struct gcp_field *f)
 {
     /* the field's own centred-dipole B0 where it has dipole coordinates */
@@ -278,26 +286,17 @@ static void equator(struct gcp_observer *o, struct lane *L, int64_t id)
         mu += w[k] * s[k]->mu;
         p2 += w[k] * s[k]->p2;
     }
-    if (o->opts.invariants & GCP_INV_MU) {
-        struct gcp_event e = {.id = id, .kind = GCP_EVENT_MU, .t = te};
-        e.v[0] = mu;
-        gcp_obs_emit(o, L, &e);
-    }
-    if (o->opts.invariants & GCP_INV_ENERGY) {
-        struct gcp_event e = {.id = id, .kind = GCP_EVENT_ENERGY, .t = te};
-        e.v[0] = gcp_obs_energy(o, p2);
-        gcp_obs_emit(o, L, &e);
-    }
+    if (o->opts.invariants & GCP_INV_MU) gcp_obs_emit_scalar(o, L, id, GCP_EVENT_MU, te, mu);
+    if (o->opts.invariants & GCP_INV_ENERGY)
+        gcp_obs_emit_scalar(o, L, id, GCP_EVENT_ENERGY, te, gcp_obs_energy(o, p2));
     if (o->opts.invariants & GCP_INV_PPHI) {
-        struct gcp_event e = {.id = id, .kind = GCP_EVENT_PPHI, .t = te};
         double v = 0;
         for (int k = 0; k < 3; k++) {
             double pp;
             gcp_gc_pphi(o->f, s[k]->t, o->q, s[k]->X, s[k]->ppar, &pp);
             v += w[k] * pp;
         }
-        e.v[0] = v;
-        gcp_obs_emit(o, L, &e);
+        gcp_obs_emit_scalar(o, L, id, GCP_EVENT_PPHI, te, v);
     }
     if (o->want_drift) {
         /* the azimuth of the middle sample (from the last equator point's:

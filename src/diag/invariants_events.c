@@ -13,6 +13,7 @@
 
 #include "gcpush/error.h"
 #include "gcpush/invariants.h"
+#include "invariants_priv.h"
 
 /* Event storage of cap events, the first n kept from old.  A run with
  * invariants asked keeps ~1e5-1e6 events (a mu row per half-bounce, 32
@@ -102,19 +103,42 @@ static void events_release(void *e, int64_t cap, size_t sz)
 }
 #endif
 
+/* The lines of the row EV_AHEAD pushes on, asked for now (for writing):
+ * the storage is fresh memory that no cache holds (the kernel zeroes a
+ * new page with stores that bypass them), and a row's stores otherwise
+ * wait for its lines from memory, one row at a time (the pushes are
+ * hundreds of ns apart).  A prefetch into a page not yet faulted in is
+ * dropped, so the first rows of each new page still wait.  Measured
+ * (rdtsc around the observer's pushes, gc-rk4 scene of
+ * tests/bench/observer.sh, 610k rows, on the loaded 2-core machine, 6 runs
+ * of each binary interleaved): 0.09-0.31 s -> 0.02-0.05 s, mostly; the
+ * push's CPU time did not move beyond that machine's noise. */
+#define EV_AHEAD 4
+static inline void rows_ahead(const void *row, size_t sz)
+{
+    const char *p = row;
+    for (size_t off = 0; off < sz; off += 64) __builtin_prefetch(p + off, 1, 3);
+}
+
+int gcp_events_push_scalar(struct gcp_events *ev, const struct gcp_scalar_event *e)
+{
+    if (ev->ns == ev->scap) {
+        const int64_t cap = ev->scap ? 2 * ev->scap : 256;
+        void *p = events_grow(ev->s, ev->ns, ev->scap, cap, sizeof *ev->s);
+        if (!p) return GCP_ERR_NOMEM;
+        ev->s = p;
+        ev->scap = cap;
+    }
+    ev->s[ev->ns++] = *e;
+    if (ev->ns + EV_AHEAD < ev->scap) rows_ahead(&ev->s[ev->ns + EV_AHEAD], sizeof *ev->s);
+    return 0;
+}
+
 int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
 {
-    if (gcp_event_scalar(e->kind)) {
-        if (ev->ns == ev->scap) {
-            const int64_t cap = ev->scap ? 2 * ev->scap : 256;
-            void *p = events_grow(ev->s, ev->ns, ev->scap, cap, sizeof *ev->s);
-            if (!p) return GCP_ERR_NOMEM;
-            ev->s = p;
-            ev->scap = cap;
-        }
-        ev->s[ev->ns++] = (struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]};
-        return 0;
-    }
+    if (gcp_event_scalar(e->kind))
+        return gcp_events_push_scalar(
+            ev, &(struct gcp_scalar_event){e->id, e->kind, e->status, e->t, e->v[0]});
     if (ev->n == ev->cap) {
         const int64_t cap = ev->cap ? 2 * ev->cap : 256;
         void *p = events_grow(ev->e, ev->n, ev->cap, cap, sizeof *ev->e);
@@ -123,6 +147,7 @@ int gcp_events_push(struct gcp_events *ev, const struct gcp_event *e)
         ev->cap = cap;
     }
     ev->e[ev->n++] = *e;
+    if (ev->n + EV_AHEAD < ev->cap) rows_ahead(&ev->e[ev->n + EV_AHEAD], sizeof *ev->e + 63);
     return 0;
 }
 

@@ -197,6 +197,13 @@ static inline double gcp_obs_dot3(const double a[3], const double b[3])
 /* Appends e to the push's events, tagged with the lane's mode (non-loss
  * events carry it in .status). */
 void gcp_obs_emit(struct gcp_observer *o, const struct lane *L, struct gcp_event *e);
+/* The same for an event of a scalar kind (gcp_event_scalar: mu, energy,
+ * p_phi at an equator point, twice a bounce), straight into its row: no
+ * 136-byte struct gcp_event formed, zeroed and copied for its 32 bytes. */
+void gcp_obs_emit_scalar(struct gcp_observer *o, const struct lane *L, int64_t id, int32_t kind,
+                         double t, double v);
+/* gcp_events_push of a scalar row (invariants_events.c). */
+int gcp_events_push_scalar(struct gcp_events *ev, const struct gcp_scalar_event *e);
 /* gamma m [kg] of momentum^2 p2. */
 double gcp_obs_gamma_m(const struct gcp_observer *o, double p2);
 /* Kinetic energy [J] of momentum^2 p2: p^2 c^2 / (E + m c^2), no cancellation. */

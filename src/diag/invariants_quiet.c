@@ -2,57 +2,54 @@
  * state: struct gcp_observer.hot in invariants_priv.h).
  *
  * A guiding-centre pusher feeds the observer every step of every lane; on
- * most steps nothing happens to a lane but the trapezoid sums of J and of
+ * ~9 steps in 10 nothing happens to a lane but the trapezoid sums of J and
  * mu and, on the way down to the equator, a new |B| minimum.  Those steps
  * are one vectorised pass over a struct of arrays here, with the
  * expressions of gcp_obs_stream_sample_jd (so the events are bit-identical
- * to sending every step through it); the lane's struct lane is brought up
- * to date before any other step goes through gcp_obs_stream_sample_jd, and
- * read back after it.  Measured (the scenes of tests/bench/observer.sh,
- * 2048 protons of 1 MeV in the dipole, old and new binaries interleaved on a
- * shared core, with the events storage of gcp_events_push): the observer's
- * cost over the bare push fell from ~1.0x to 0.6-0.8x for gc-rk4 and from
- * ~0.2x to 0.03-0.1x for gc-gl4.
+ * to sending every step through it); the rest (mirror points, the sample
+ * after a minimum, cadence times) go per lane, the lane's struct lane
+ * brought up to date before gcp_obs_stream_sample_jd and read back after.
  *
- * With the fused gc-rk4 step (8.7 ns a lane-step) that observer cost ~1.9x
- * the push again; the ring, |B|, p^2 and jd in the pass, the sample after a
- * minimum in the pass and the events grown in place brought it to ~1.25x
- * (best of 9, interleaved: 0.477 -> 0.383 s over a 0.17 s push).  What is
- * left, by perf (share of the observer's time): the per-event work ~60%
- * (mirror points, equator points: three atan2 + hypot + A(X) each for the
- * drift contour, ~25%; storing the 83 MB of 136-byte event rows, mostly
- * the kernel zeroing fresh pages, ~14%), this pass ~17% (bound by its two
- * square roots and two divisions a lane-step, ~2.5 ns), B at the lanes
- * ~4%.  The fused tile taking one step per call, with the last-position
- * copy, ~0.03 s (a run with only `events = loss`).
+ * Where the cost is (tests/bench/observer.sh's gc-rk4 row: 2048 protons of
+ * 1 MeV, 12.9M lane-steps; bare push ~0.175 s of CPU, the observer ~0.15 s
+ * more, 1.8-1.9x), timed with rdtsc around each part (one run on the
+ * loaded 2-core machine: wall time, to +-20%): this pass ~0.05 s, bound by
+ * each lane's chain of two square roots and a division (|B| and the J
+ * integrand p_par^2 / sqrt(m^2 + p^2/c^2), which the events' bits fix)
+ * and ~28 loads and stores a lane; the 410k mirror points ~0.12 s
+ * (~290 ns each: the equator point's Lagrange weights and rows ~0.05 s,
+ * its drift contour about a quarter of that, asin, the bounce rows, the
+ * copies between the hot arrays and struct lane ~0.025 s); the samples
+ * after a minimum and the cadence times ~0.01 s each; the compaction of
+ * the slow lanes ~0.01 s (slow_compact, now ~half that).
  *
- * Since: B at the lanes comes from the block where gc-rk4's fused step left
- * it (GCP_BLOCK_B_AT_X: the dipole form it formed at the new state for its
- * next call's stage 1), one square root and one division a lane-step less
- * here; the lane's state is written with selects (GCC's masked stores of
- * next[] were read back at once, a store-forwarding stall); the slow lanes'
- * struct lane prefetched.  gc-rk4 push with the observer, median of 11
- * interleaved runs on one core: 0.370 -> 0.350 s (bare push 0.174 s:
- * 2.13x -> 1.99x).  What bounds the pass now: two square roots and two
- * divisions a lane (|B|, gamma m, p^2/c^2, the J integrand), which the
- * events' bits fix.
+ * What paid (push with the observer over the bare push; old and new
+ * binaries interleaved on a shared core): this pass (observer ~1.0x ->
+ * 0.6-0.8x of the block step's push); against the fused gc-rk4 step
+ * (2x faster), the ring, the sample after a minimum in the pass and the
+ * events grown in place (2.8x -> 2.25x, best of 9); B from the block
+ * where the fused step leaves it (GCP_BLOCK_B_AT_X), the lane state
+ * written with selects, the slow lanes prefetched (2.13x -> 1.99x); the
+ * chains in a loop of their own; the compaction with AVX-512, the rows'
+ * lines prefetched, the scalar rows pushed as such (0.341 -> 0.332 s and
+ * 0.396 -> 0.368 s over ~0.177 s, medians of 11 pairs at load 8: a few %,
+ * near the machine's noise).
  *
- * Since: those in a loop of their own, ahead of the lane logic (the engine
- * pushes chunks of 64 lanes: 8 vectors a call, whose chains of two square
- * roots and two divisions in series the big loop overlapped ~2 at a time),
- * and p^2/c^2 as a product (stream_quiet_pass).  perf, cpu-clock samples of
- * this function over those of the fused tile, gc-rk4 scene of
- * tests/bench/observer.sh, medians of 5 runs a binary interleaved on the
- * loaded 2-core machine: 0.27 -> 0.26 (the push as a whole: within the
- * machine's +-20% noise).  What the observer costs there now, by perf
- * (dwarf call graphs, share of its samples): the page faults of the event
- * storage ~18% (40 MB of rows, zeroed by the kernel: ~0.2x the bare push
- * alone, which the rows' size fixes), this pass ~20%, the mirror and
- * equator points (mirror, equator, contour_A, azimuths, asin, drift
- * contour) ~25%, the copies between the hot arrays and struct lane around
- * them ~9%. */
+ * Tried and dropped: |B|, p^2 and the J integrand formed by the fused tile
+ * at the new state with these expressions (bit-identical) and read here:
+ * the push with the observer went 0.342 -> 0.362 s (medians of 9 pairs),
+ * three more operations in series on the tile's last stage, already a
+ * chain of square roots and divisions, cost more than this loop (the
+ * tile's own |B| = |c5| r q and gamma are not these numbers bit for bit).
+ * The event storage's page faults cost ~0.1 s only when the kernel hands
+ * out pages the host has not backed (this VM reports free pages to its
+ * host); with pages warm, a test binary that stored no bounce or mu rows
+ * at all was no faster (0.331 vs 0.331 s, medians of 7 pairs). */
 #include <math.h>
 #include <stdint.h>
+#if defined(__AVX512F__)
+#include <immintrin.h>
+#endif
 
 #include "gcpush/field_kernels.h"
 #include "gcpush/invariants.h"
@@ -246,6 +243,38 @@ stream_quiet_pass(struct gcp_observer *o, const struct gcp_block *b, double t, s
 
 #define SLOW_AHEAD 4
 
+/* The lanes i < n with slow[i] != 0, as 8 i + slow[i], in order into
+ * slow[0 .. ns) (in place: ns <= i); returns ns.  With AVX-512 eight lanes
+ * a step, compressed in a register and written with a masked store (a
+ * compressing store to memory is microcoded on AMD Zen 4); the scalar loop
+ * carries ns from each lane to the next (~0.011 s of the observer's ~0.15 s
+ * in tests/bench/observer.sh's gc-rk4 scene, ~0.006 s this way: rdtsc, the
+ * least of 7 runs each). */
+static size_t slow_compact(int64_t *slow, size_t n)
+{
+    size_t ns = 0, i = 0;
+#if defined(__AVX512F__)
+    const __m512i iota = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
+    for (; i < n; i += 8) {
+        const unsigned m = n - i < 8 ? (unsigned)(n - i) : 8u;
+        const __mmask8 valid = (__mmask8)((1u << m) - 1u);
+        const __m512i v = _mm512_maskz_loadu_epi64(valid, slow + i);
+        const __mmask8 k = _mm512_test_epi64_mask(v, v);
+        const __m512i at = _mm512_slli_epi64(_mm512_add_epi64(_mm512_set1_epi64((int64_t)i), iota), 3);
+        const __m512i c = _mm512_maskz_compress_epi64(k, _mm512_add_epi64(at, v));
+        const unsigned nk = (unsigned)__builtin_popcount((unsigned)k);
+        _mm512_mask_storeu_epi64(slow + ns, (__mmask8)((1u << nk) - 1u), c);
+        ns += nk;
+    }
+#endif
+    for (; i < n; i++) {
+        const int64_t v = slow[i];
+        slow[ns] = 8 * (int64_t)i + v; /* v: 1, or 2 and 4 */
+        ns += v != 0;
+    }
+    return ns;
+}
+
 static inline void lane_prefetch(const struct lane *L)
 {
     const char *p = (const char *)L;
@@ -280,14 +309,9 @@ void gcp_obs_stream_quiet(struct gcp_observer *o, const struct gcp_block *b, dou
     /* the positions of the lanes that were not quiet (~1 in 10 a step:
      * mirror points, samples after a minimum, cadence times), found
      * without a branch per lane (one that mispredicts 1 time in 10 cost
-     * as much as a fifth of the pass), in place over slow[] (k <= i), as 4 i + slow[i] */
+     * as much as a fifth of the pass), in place over slow[] (k <= i), as 8 i + slow[i] */
     int64_t *restrict slow = o->hot.slow;
-    size_t ns = 0;
-    for (size_t i = 0; i < n; i++) {
-        const int64_t v = slow[i];
-        slow[ns] = 8 * (int64_t)i + v; /* v: 1, or 2 and 4 */
-        ns += v != 0;
-    }
+    const size_t ns = slow_compact(slow, n);
     /* the struct lane of each (744 bytes, 12 cache lines; the 2048 lanes
      * of the bench, 1.5 MB, are not in L2): fetched SLOW_AHEAD lanes ahead,
      * so that their misses overlap instead of stalling each lane's work */
