@@ -2,7 +2,7 @@
  * without copies or second page faults, release, and the sort by (id,
  * kind, t) with duplicates dropped that the output and the merge of ranks
  * read.  Split from invariants.c (the observer itself). */
-#define _GNU_SOURCE /* mremap, MADV_HUGEPAGE (Linux): gcp_events_push */
+#define _GNU_SOURCE /* mremap, MADV_HUGEPAGE (Linux): gcp_events_push; qsort_r */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -209,15 +209,19 @@ static int key_cmp(struct ev_key a, struct ev_key b)
     return (a.t > b.t) - (a.t < b.t);
 }
 
-/* qsort of row indices (a total order: key, then push index, so any sort
- * gives the stable order) where the counting sort does not apply. */
-static const char *srt_rows_;
-static size_t srt_sz_;
-static int by_key_index(const void *va, const void *vb)
+/* qsort_r of row indices (a total order: key, then push index, so any
+ * sort gives the stable order) where the counting sort does not apply; the
+ * rows through the context, not a static (the library may sort in threads). */
+struct srt_ctx {
+    const char *rows;
+    size_t sz;
+};
+static int by_key_index(const void *va, const void *vb, void *vc)
 {
+    const struct srt_ctx *c = vc;
     const int64_t a = *(const int64_t *)va, b = *(const int64_t *)vb;
-    const int c = key_cmp(ev_key(srt_rows_, srt_sz_, a), ev_key(srt_rows_, srt_sz_, b));
-    return c ? c : (a > b) - (a < b);
+    const int k = key_cmp(ev_key(c->rows, c->sz, a), ev_key(c->rows, c->sz, b));
+    return k ? k : (a > b) - (a < b);
 }
 
 /* Sorts n rows of sz bytes in place and drops repeated keys; the number
@@ -237,7 +241,7 @@ static int64_t sort_rows(char *rows, int64_t n, size_t sz)
     if (sorted) return n;
     int64_t *perm = malloc((size_t)n * sizeof *perm);
     if (!perm) return -1;
-    srt_rows_ = rows, srt_sz_ = sz;
+    struct srt_ctx sc = {rows, sz};
     /* buckets (id, kind), kind < GCP_EVENT_KINDS; dense when at most ~2n */
     const uint64_t span = (uint64_t)idhi - (uint64_t)idlo;
     int64_t *at = NULL;
@@ -267,14 +271,15 @@ static int64_t sort_rows(char *rows, int64_t n, size_t sz)
             for (int64_t b = 0, lo = 0; b < nb; lo = at[b++]) {
                 int64_t j = lo + 1;
                 while (j < at[b] && ev_key(rows, sz, perm[j - 1]).t <= ev_key(rows, sz, perm[j]).t) j++;
-                if (j < at[b]) qsort(perm + lo, (size_t)(at[b] - lo), sizeof *perm, by_key_index);
+                if (j < at[b])
+                    qsort_r(perm + lo, (size_t)(at[b] - lo), sizeof *perm, by_key_index, &sc);
             }
             free(at);
         }
     }
     if (!at) { /* ids too sparse for buckets */
         for (int64_t i = 0; i < n; i++) perm[i] = i;
-        qsort(perm, (size_t)n, sizeof *perm, by_key_index);
+        qsort_r(perm, (size_t)n, sizeof *perm, by_key_index, &sc);
     }
     /* row j of the sorted rows is old row perm[j]: follow each cycle
      * j <- perm[j] <- perm[perm[j]] ..., holding its first row; a placed

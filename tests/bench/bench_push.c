@@ -590,7 +590,8 @@ static double limit_scene(enum limit_kind kind, const struct gcp_pusher_type *p,
  * B; E and the dipole's field add more), on a divide unit of a fraction of
  * the multipliers' throughput.  On the development machine (AMD EPYC,
  * 2026-11-24, loaded) floor / PIC L2 read 0.81-0.87 in uniform B, 0.71-0.82
- * in E and B and 0.66-0.69 in the dipole: the goal asks for the memory
+ * in E and B and 0.66-0.69 in the dipole (idle `make bench` at 04:35 and
+ * 07:11: 0.75-0.76, 0.65-0.70, 0.62-0.66): the goal asks for the memory
  * traffic hidden almost entirely behind the arithmetic, and in the dipole
  * is out of reach for the IEEE step however the traffic is scheduled.
  * Measured there (a stand-alone copy of the uniform-B tile) and not kept:
